@@ -1,0 +1,1 @@
+"""Command-line tools of fbcc_ros."""

@@ -1,0 +1,85 @@
+"""fbcc-bench: speed figures of the core, against the targets of the issues.
+
+Prints one line per figure: the measured value, the target and the ratio (>1 means the target is
+met with that much room). ``--short`` runs a few repetitions only, to prove the command works in
+CI; its figures are noisy. Exit status 0 either way: speed is reported, not asserted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import statistics
+import time
+
+import numpy as np
+
+from fbcc_ros.cli.common import paper_pair
+
+# Targets of issue 2: one response <= 100 µs; batched >= 50 000 responses/s.
+SINGLE_TARGET_US = 100.0
+BATCH_TARGET_PER_S = 50_000.0
+
+
+def _random_features(rng: np.random.Generator, n: int) -> np.ndarray:
+    tilt = math.radians(2.0)
+    return np.column_stack(
+        [
+            rng.uniform(-1e-4, 1e-4, n),
+            rng.uniform(-1e-4, 1e-4, n),
+            rng.uniform(1e-3, 10e-3, n),
+            rng.uniform(-tilt, tilt, n),
+            rng.uniform(-tilt, tilt, n),
+        ]
+    )
+
+
+def bench_single(fit: str, repeats: int, rng: np.random.Generator) -> float:
+    """Median time of one ``response`` call on one feature vector [µs]."""
+    ph = paper_pair(fit)
+    feats = _random_features(rng, repeats)
+    ph.response(feats[0])  # warm caches
+    times = []
+    for f in feats:
+        t0 = time.perf_counter()
+        ph.response(f)
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times) * 1e6
+
+
+def bench_batch(fit: str, n: int, rounds: int, rng: np.random.Generator) -> float:
+    """Best-of-rounds throughput of batched ``response`` calls [responses/s]."""
+    ph = paper_pair(fit)
+    feats = _random_features(rng, n)
+    best = math.inf
+    for _ in range(rounds):
+        t0 = time.perf_counter()
+        ph.response(feats)
+        best = min(best, time.perf_counter() - t0)
+    return n / best
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="fbcc-bench", description=__doc__.splitlines()[0])
+    parser.add_argument("--short", action="store_true", help="few repetitions (CI smoke run)")
+    args = parser.parse_args(argv)
+    repeats, batch, rounds = (200, 5_000, 2) if args.short else (5_000, 100_000, 5)
+    rng = np.random.default_rng(0)
+    print(f"fbcc-bench ({'short' if args.short else 'full'} mode)")
+    print(f"{'figure':46s} {'measured':>12s} {'target':>12s} {'ratio':>7s}")
+    for fit in ("clearance", "interference"):
+        single = bench_single(fit, repeats, rng)
+        print(
+            f"{'contact response, one call [µs] (' + fit + ')':46s} {single:12.1f}"
+            f" {'<= ' + format(SINGLE_TARGET_US, '.0f'):>12s} {SINGLE_TARGET_US / single:7.2f}"
+        )
+        rate = bench_batch(fit, batch, rounds, rng)
+        print(
+            f"{'contact response, batched [1/s] (' + fit + ')':46s} {rate:12.0f}"
+            f" {'>= ' + format(BATCH_TARGET_PER_S, '.0f'):>12s} {rate / BATCH_TARGET_PER_S:7.2f}"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,339 @@
+"""Peg-hole geometry and the contact model of the paper (Section II.B, eq. 5-13).
+
+Geometry (DESIGN §3, and the reading of eq. 5 written down in ``docs/contact-model.md``):
+
+* Frame {H}: origin at the centre of the hole's top face, z along the hole axis pointing out of
+  the hole. The hole wall is the cylinder ``x² + y² = R²`` for ``-L <= z <= 0`` (eq. 6).
+* Features ``(dx, dy, l, theta_x, theta_y)``. ``theta_x``, ``theta_y`` are the projected tilts of
+  the peg axis (right-hand rotations about x and y; eq. 3 read with eq. 14), so the axis leans by
+  ``t = (tan theta_y, -tan theta_x)`` horizontally per unit of height. The total tilt is
+  ``tan theta = |t|`` and the lean direction is ``e = t / |t|`` (the paper's ``(cos phi, sin phi)``).
+* Slices (eq. 5): ``s`` is the height above the peg's lowest point, from ``s_l = 0`` to the top
+  face ``s_u = l cos theta``. The slice of the peg at ``s`` is the ellipse of eq. 7, rotated to
+  the lean direction (semi-axis ``r / cos theta`` along ``e``, ``r`` across), centred at
+
+      O_p(s) = (dx, dy) - (l/2 + r sin theta - s / cos theta) sin theta · e.          (5)
+
+* Contact (eq. 8): along the half-line from the hole axis at angle alpha, the peg's outline lies
+  at distance ``rho = O_hG``; the wall pressure is ``p = k (rho - R) / R`` where ``rho >= R``.
+
+Quadrature: for each ray alpha the contact interval in s is found exactly (the wall point
+``R (cos alpha, sin alpha)`` lies inside the slice ellipse on an interval of s, because the slice
+centre moves linearly in s), and the smooth penetration ``rho - R`` is integrated over that
+interval by Gauss-Legendre. Only the outer integral over alpha is a uniform (periodic) rule. The
+accuracy against a brute-force 2-D quadrature of eq. 9-13 is pinned in ``test/core/test_contact.py``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from fbcc_ros.core.errors import ConfigError, InputError
+
+FloatArray = NDArray[np.float64]
+
+#: Order of the features in every feature vector: (dx, dy, l, theta_x, theta_y).
+FEATURE_NAMES = ("dx", "dy", "l", "theta_x", "theta_y")
+#: Order of the responses in every response vector: (Fx, Fy, Fz, Mx, My).
+RESPONSE_NAMES = ("Fx", "Fy", "Fz", "Mx", "My")
+
+#: Young's modulus [Pa] and Poisson's ratio of ABS, the paper's material (typical datasheet values).
+ABS_YOUNG = 2.2e9
+ABS_POISSON = 0.35
+
+ActingPoint = Literal["hole_bottom", "peg_top"]
+_ACTING_POINTS = ("hole_bottom", "peg_top")
+
+# Gauss-Legendre nodes and weights on [-1, 1] for the integral along s on each contact interval.
+_GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(3)
+
+
+def lame_stiffness(
+    hole_radius: float,
+    outer_radius: float,
+    young_peg: float = ABS_YOUNG,
+    poisson_peg: float = ABS_POISSON,
+    young_hole: float = ABS_YOUNG,
+    poisson_hole: float = ABS_POISSON,
+) -> float:
+    """The coefficient k of eq. (8) from Lamé's thick-walled cylinder solution [Pa].
+
+    A solid peg pressed into a thick-walled cylinder (inner radius R, outer radius b) by a radial
+    interference delta carries the contact pressure (shrink-fit formula, e.g. Shigley §3-16)
+
+    .. math::
+        \\delta = p R \\left[\\frac{1}{E_h}\\left(\\frac{b^2 + R^2}{b^2 - R^2} + \\nu_h\\right)
+                 + \\frac{1 - \\nu_p}{E_p}\\right],
+
+    and eq. (8) writes ``p = k delta / R``, so
+
+    .. math::
+        k = \\left[\\frac{1}{E_h}\\left(\\frac{b^2 + R^2}{b^2 - R^2} + \\nu_h\\right)
+            + \\frac{1 - \\nu_p}{E_p}\\right]^{-1}.
+
+    Args:
+        hole_radius: R [m].
+        outer_radius: b, outer radius of the part that holds the hole [m], > R.
+        young_peg, young_hole: Young's moduli [Pa].
+        poisson_peg, poisson_hole: Poisson's ratios, in [0, 0.5).
+    """
+    _check_positive("hole_radius", hole_radius)
+    _check_positive("young_peg", young_peg)
+    _check_positive("young_hole", young_hole)
+    for name, nu in (("poisson_peg", poisson_peg), ("poisson_hole", poisson_hole)):
+        if not (math.isfinite(nu) and 0.0 <= nu < 0.5):
+            raise ConfigError(name, nu, "a Poisson's ratio in [0, 0.5)")
+    if not (math.isfinite(outer_radius) and outer_radius > hole_radius):
+        raise ConfigError(
+            "outer_radius", outer_radius, f"a length in m greater than hole_radius={hole_radius}"
+        )
+    b2, r2 = outer_radius**2, hole_radius**2
+    compliance = ((b2 + r2) / (b2 - r2) + poisson_hole) / young_hole + (1.0 - poisson_peg) / young_peg
+    return 1.0 / compliance
+
+
+def _check_positive(field: str, value: float) -> None:
+    if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value) and value > 0):
+        raise ConfigError(field, value, "a finite number > 0 (SI units)")
+
+
+@dataclasses.dataclass(frozen=True)
+class PegHole:
+    """A cylindrical peg and hole, and the contact model of eq. (5)-(13).
+
+    Attributes:
+        hole_radius: R [m].
+        peg_radius: r [m]. ``r < R`` is a clearance fit, ``r > R`` an interference fit.
+        hole_depth: L, depth of the hole [m].
+        base_thickness: H, thickness of the hole's bottom layer [m] (the sensor sits under it).
+        friction: mu, Coulomb friction coefficient between peg and hole, in [0, 1).
+        stiffness: k of eq. (8) [Pa]; see :func:`lame_stiffness` and :meth:`from_materials`.
+        acting_point: Where the moments are taken. ``"hole_bottom"`` (default): the centre of the
+            hole's lower surface, L + H below the top face (eq. 12-13). ``"peg_top"``: the centre
+            of the peg's top face, ``peg_length`` along the axis from the tip (Remark 2 of II.B,
+            the wrist-sensor placement of the paper's experiment).
+        peg_length: Length of the peg from its tip to its top face [m]; used by ``"peg_top"``.
+        n_angles: Points of the periodic rule over alpha (a multiple of 4, so that the rule is
+            symmetric under 90° rotations about z).
+    """
+
+    hole_radius: float
+    peg_radius: float
+    hole_depth: float
+    base_thickness: float
+    friction: float
+    stiffness: float
+    acting_point: ActingPoint = "hole_bottom"
+    peg_length: float = 0.05
+    n_angles: int = 48
+
+    def __post_init__(self) -> None:
+        _check_positive("hole_radius", self.hole_radius)
+        _check_positive("peg_radius", self.peg_radius)
+        _check_positive("hole_depth", self.hole_depth)
+        _check_positive("stiffness", self.stiffness)
+        if not (math.isfinite(self.base_thickness) and self.base_thickness >= 0):
+            raise ConfigError("base_thickness", self.base_thickness, "a finite length >= 0 in m")
+        if not (math.isfinite(self.friction) and 0.0 <= self.friction < 1.0):
+            raise ConfigError("friction", self.friction, "a friction coefficient in [0, 1)")
+        if self.acting_point not in _ACTING_POINTS:
+            raise ConfigError("acting_point", self.acting_point, f"one of {_ACTING_POINTS}")
+        if self.acting_point == "peg_top":
+            _check_positive("peg_length", self.peg_length)
+        if not (isinstance(self.n_angles, int) and self.n_angles >= 8 and self.n_angles % 4 == 0):
+            raise ConfigError("n_angles", self.n_angles, "an integer >= 8 that is a multiple of 4")
+
+    @classmethod
+    def from_materials(
+        cls,
+        hole_radius: float,
+        peg_radius: float,
+        hole_depth: float,
+        base_thickness: float,
+        friction: float,
+        outer_radius: float,
+        young_peg: float = ABS_YOUNG,
+        poisson_peg: float = ABS_POISSON,
+        young_hole: float = ABS_YOUNG,
+        poisson_hole: float = ABS_POISSON,
+        **kwargs: object,
+    ) -> PegHole:
+        """A PegHole whose k of eq. (8) comes from :func:`lame_stiffness` (ABS by default)."""
+        k = lame_stiffness(
+            hole_radius, outer_radius, young_peg, poisson_peg, young_hole, poisson_hole
+        )
+        return cls(hole_radius, peg_radius, hole_depth, base_thickness, friction, k, **kwargs)  # type: ignore[arg-type]
+
+    @property
+    def fit(self) -> str:
+        """``"clearance"`` when r < R, else ``"interference"`` (r == R counts as interference)."""
+        return "clearance" if self.peg_radius < self.hole_radius else "interference"
+
+    def replace(self, **changes: object) -> PegHole:
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)  # type: ignore[arg-type]
+
+    def boundary_lever(self, depth: ArrayLike) -> FloatArray:
+        """Slope My/Fx of the image of theta_y = 0 in response space [m] (eq. 23-24).
+
+        With no tilt every slice carries the same pressure, so My/Fx is the mean lever of the
+        contact band over the acting point plus the friction arm mu R. For the default acting
+        point this is eq. (24), ``-l/2 + L + H + mu R``; for ``"peg_top"`` the acting point is
+        ``peg_length - l`` above the top face and the lever is ``l/2 - peg_length + mu R``.
+        Depths beyond L are clamped to L: below the hole there is no wall.
+        """
+        l_wall = np.minimum(np.asarray(depth, dtype=float), self.hole_depth)
+        mu_r = self.friction * self.hole_radius
+        if self.acting_point == "hole_bottom":
+            # eq. (24): My / Fx = -l/2 + L + H + mu R
+            return -l_wall / 2.0 + self.hole_depth + self.base_thickness + mu_r
+        depth = np.asarray(depth, dtype=float)
+        # acting point at z_A = peg_length - l; mean contact height -l_wall/2
+        return -l_wall / 2.0 - (self.peg_length - depth) + mu_r
+
+    def response(self, features: ArrayLike) -> FloatArray:
+        """Responses (Fx, Fy, Fz, Mx, My) for features (dx, dy, l, theta_x, theta_y).
+
+        Implements eq. (5)-(13) of the paper. The wrench is the one the peg exerts on the hole,
+        in {H}, with moments at the acting point. Signs (DESIGN §3): Fx, Fy, Mx, My follow the
+        right-hand rule, so ``Mx = -(eq. 12)``; ``Fz`` is eq. (11), the axial friction resultant,
+        positive while the peg is pushed in (it drags the hole along -z; the moment arms ``mu R``
+        of eq. 12-13 come from that friction).
+
+        Args:
+            features: shape (5,) or (N, 5); lengths in m, angles in rad; depth l >= 0.
+
+        Returns:
+            Responses of the same shape; forces in N, moments in N·m. A depth of zero, or a
+            peg that touches no wall, gives an exactly zero wrench.
+        """
+        f = np.asarray(features, dtype=float)
+        single = f.ndim == 1
+        f2 = f.reshape(1, -1) if single else f
+        if f2.ndim != 2 or f2.shape[1] != 5:
+            raise InputError("features", f"array of shape {f.shape}", "shape (5,) or (N, 5)")
+        if not np.all(np.isfinite(f2)):
+            bad = f2[~np.all(np.isfinite(f2), axis=1)][0]
+            raise InputError("features", bad.tolist(), "finite (dx, dy, l, theta_x, theta_y)")
+        if np.any(f2[:, 2] < 0):
+            bad_l = float(f2[f2[:, 2] < 0, 2][0])
+            raise InputError("features.l", bad_l, "an insertion depth >= 0 in m")
+        out = _response(self, f2)
+        return out[0] if single else out
+
+
+# Rows per chunk in a batch: keeps the (rows, n_angles, nodes) temporaries inside the CPU cache.
+_CHUNK_ROWS = 512
+
+
+@functools.lru_cache(maxsize=8)
+def _angle_table(n_angles: int) -> tuple[FloatArray, FloatArray]:
+    """cos and sin of the ray angles: uniform periodic midpoint rule over alpha in [-pi, pi)."""
+    alpha = -math.pi + (np.arange(n_angles) + 0.5) * (2.0 * math.pi / n_angles)
+    return np.cos(alpha), np.sin(alpha)
+
+
+def _response(ph: PegHole, f: FloatArray) -> FloatArray:
+    """Vectorised eq. (5)-(13) over N validated feature rows, in cache-sized chunks."""
+    if len(f) <= _CHUNK_ROWS:
+        return _response_chunk(ph, f)
+    return np.concatenate(
+        [_response_chunk(ph, f[i : i + _CHUNK_ROWS]) for i in range(0, len(f), _CHUNK_ROWS)]
+    )
+
+
+def _response_chunk(ph: PegHole, f: FloatArray) -> FloatArray:
+    R, r, mu = ph.hole_radius, ph.peg_radius, ph.friction
+    dx, dy, l, thx, thy = (f[:, i : i + 1] for i in range(5))  # each (N, 1)
+
+    # Lean of the axis per unit height, t = (tan theta_y, -tan theta_x) (right-hand theta_x).
+    # The 1e-300 picks e = +x for an untilted peg without a branch; it is below rounding otherwise.
+    tx, ty = np.tan(thy) + 1e-300, -np.tan(thx)
+    tan_t = np.hypot(tx, ty)
+    ex, ey = tx / tan_t, ty / tan_t
+    cos_t = 1.0 / np.sqrt(1.0 + tan_t * tan_t)
+    sin_t = tan_t * cos_t
+
+    # Midpoint offset in the lean frame (e along the lean, e_perp = z x e across it).
+    m_e = dx * ex + dy * ey
+    m_p = dy * ex - dx * ey
+    # eq. (5) along e: o_e(s) = a0 + s tan(theta), a0 = m_e - (l/2 + r sin theta) sin theta
+    a0 = m_e - (0.5 * l + r * sin_t) * sin_t
+    s_u = l * cos_t  # top face of the hole, s_u = l cos(theta)
+    s_lo = np.maximum(0.0, s_u - ph.hole_depth)  # no wall below the hole's depth L
+
+    ca, sa = _angle_table(ph.n_angles)
+    d_e = ca * ex + sa * ey  # ray direction along e, (N, n_a)
+    d_p = sa * ex - ca * ey  # and across it
+
+    # Contact interval in s: the wall point R d lies inside the slice ellipse (eq. 6-7),
+    #   (R d_e - o_e(s))^2 cos^2(theta) + (R d_p - m_p)^2 <= r^2,
+    # i.e. |R d_e - a0 - s tan(theta)| <= half tan(theta). For an untilted peg tan(theta) is
+    # ~1e-300 and the interval is all of [s_lo, s_u] or empty, as it must be.
+    across = np.maximum(r * r - (R * d_p - m_p) ** 2, 0.0)
+    half = np.sqrt(across) / sin_t  # = sqrt(across) / cos(theta) / tan(theta)
+    centre = (R * d_e - a0) / tan_t
+    s1 = np.maximum(centre - half, s_lo)
+    s2 = np.minimum(centre + half, s_u)
+    half_len = np.maximum(0.5 * (s2 - s1), 0.0)  # (N, n_a); 0 where the ray misses
+    mid = 0.5 * (s1 + s2)
+
+    # Gauss-Legendre nodes on each interval: (N, n_a, n_gl).
+    s = mid[..., None] + half_len[..., None] * _GL_NODES
+    o_e = a0[..., None] + s * tan_t[..., None]
+    cos2 = (cos_t * cos_t)[..., None]
+    de, dp, mp = d_e[..., None], d_p[..., None], m_p[..., None]
+    # Far intersection of the ray with the ellipse: A rho^2 - 2 B rho + C = 0.
+    qa = de * de * cos2 + dp * dp
+    qb = de * o_e * cos2 + dp * mp
+    qc = o_e * o_e * cos2 + (mp * mp - r * r)
+    rho = (qb + np.sqrt(np.maximum(qb * qb - qa * qc, 0.0))) / qa
+    # eq. (8) times the area element R d(alpha) ds: p dA = k (rho - R) d(alpha) ds
+    g = np.maximum(rho - R, 0.0) * _GL_WEIGHTS
+    g0 = half_len * g.sum(axis=-1)  # ∫ (rho - R) ds per ray
+    g1s = half_len * (g * s).sum(axis=-1)  # ∫ (rho - R) s ds per ray
+
+    z_a, ax, ay = _acting_point(ph, dx, dy, l, sin_t, cos_t, tan_t, ex, ey, s_u)
+    # lever arm of eq. (12)-(13): z - z_A + mu R, with the slice height z = s - s_u
+    lever = g1s + (mu * R - s_u - z_a) * g0
+
+    w = ph.stiffness * (2.0 * math.pi / ph.n_angles)
+    sum_g0 = w * g0.sum(axis=-1)
+    fx = w * (g0 @ ca)  # eq. (9)
+    fy = w * (g0 @ sa)  # eq. (10)
+    fz = mu * sum_g0  # eq. (11)
+    # eq. (12) with the right-hand sign: Mx = -∫(z - z_A + mu R) p R sin(alpha) + mu A_y ∫p R
+    mx = -w * (lever @ sa) + mu * ay[:, 0] * sum_g0
+    # eq. (13): My = ∫(z - z_A + mu R) p R cos(alpha) - mu A_x ∫p R
+    my = w * (lever @ ca) - mu * ax[:, 0] * sum_g0
+    return np.stack([fx, fy, fz, mx, my], axis=-1)
+
+
+def _acting_point(
+    ph: PegHole,
+    dx: FloatArray,
+    dy: FloatArray,
+    l: FloatArray,
+    sin_t: FloatArray,
+    cos_t: FloatArray,
+    tan_t: FloatArray,
+    ex: FloatArray,
+    ey: FloatArray,
+    s_u: FloatArray,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Position (z_A, x_A, y_A) of the equivalent acting point in {H}, each (N, 1)."""
+    if ph.acting_point == "hole_bottom":
+        z_a = np.full_like(dx, -(ph.hole_depth + ph.base_thickness))
+        return z_a, np.zeros_like(dx), np.zeros_like(dx)
+    # On the axis, peg_length from the tip centre. By eq. (5) the axis crosses (dx, dy) at
+    # s_mid = (l/2 + r sin theta) cos theta and the tip centre sits at s_tip = r sin theta cos theta.
+    s_mid = (l / 2.0 + ph.peg_radius * sin_t) * cos_t
+    s_a = ph.peg_radius * sin_t * cos_t + ph.peg_length * cos_t
+    shift = (s_a - s_mid) * tan_t
+    return s_a - s_u, dx + shift * ex, dy + shift * ey

@@ -1,0 +1,200 @@
+"""Contact states (Fig. 4, eq. 14-17) and boundary mapping into response space (eq. 18-25).
+
+Per plane there are nine states: the subscript is the sign of the offset (dx in XOZ, dy in YOZ:
+``1``, ``0``, ``-1``), the letter the tilt (theta_y in XOZ, theta_x in YOZ): ``P`` for zero tilt
+(planar contact), ``D`` for a positive tilt, ``D^`` for a negative one. ``P0`` is the ideal
+state: for a clearance fit the whole no-contact region of eq. (15), for an interference fit the
+single point of eq. (17).
+
+Signs in YOZ. The tilts are right-hand rotations (DESIGN §3), so theta_x > 0 leans the peg's top
+toward -y while theta_y > 0 leans it toward +x, and Mx = -lever·Fy while My = +lever·Fx. Both
+signs flip together, so in the normalised plane (Fy/Fz, Mx/(R Fz)) the image of theta_x = 0 is the
+line of slope ``-tan(gamma)`` and "D above the line, D^ below" holds in both planes. A 90° rotation
+about z therefore carries a ``D`` state of XOZ to a ``D^`` state of YOZ (theta_x' = -theta_y).
+
+Boundary mapping (DESIGN §5 on eq. 21, 24, 28-29). In the normalised plane of Fig. 6,
+``u = Fx/Fz``, ``v = My/(R Fz)``:
+
+* the offset is judged from ``u`` alone (eq. 21: dx = 0 maps to Fx = 0);
+* the tilt from the signed distance to the image of theta_y = 0, the line ``v = u tan(gamma)``
+  (eq. 24), ``sigma = v cos(gamma) - u sin(gamma)``, with
+  ``tan(gamma) = (-l/2 + L + H + mu R) / R`` (eq. 29 read in the normalised plane);
+* a response inside the band ``|u| <= offset_band`` is on the offset boundary, inside
+  ``|sigma| <= tilt_band`` on the tilt boundary; both, or an axial force below ``fz_min``, is
+  ``P0`` (eq. 25).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from fbcc_ros.core.contact import FloatArray, PegHole
+from fbcc_ros.core.errors import ConfigError, InputError
+
+#: The nine states of one plane, in the order of Fig. 4.
+STATES = ("P0", "P1", "P-1", "D0", "D1", "D-1", "D^0", "D^1", "D^-1")
+
+#: Default half-widths of the on-boundary bands in feature space.
+OFFSET_TOL = 1e-6  # [m]
+TILT_TOL = 1e-4  # [rad]
+#: Default half-widths of the on-boundary bands in the normalised response plane (dimensionless).
+#: Sized from the model (docs/boundary-mapping.md): dx = 0 maps to |Fx/Fz| ~ 0.1 (median; eq. 20
+#: holds only to first order), while off-boundary samples sit at |Fx/Fz| > 0.25 (99 %); the tilt
+#: signature is weaker: theta = 0 leaks to |sigma| ~ 0.003 through the other plane, while
+#: off-boundary samples sit at |sigma| > 0.005 (95 %).
+OFFSET_BAND = 0.1
+TILT_BAND = 0.005
+#: Default axial force under which a response counts as "no contact" [N].
+FZ_MIN = 0.05
+
+_LETTER = {1: "D", 0: "P", -1: "D^"}
+_LABELS = np.array(
+    [[f"{_LETTER[t]}{d}" for d in (-1, 0, 1)] for t in (-1, 0, 1)], dtype=object
+)  # indexed [tilt sign + 1, offset sign + 1]
+
+
+def _labels(offset_sign: NDArray[np.int64], tilt_sign: NDArray[np.int64]) -> NDArray[np.object_]:
+    return _LABELS[tilt_sign + 1, offset_sign + 1]  # type: ignore[no-any-return]
+
+
+def _banded_sign(x: FloatArray, tol: float) -> NDArray[np.int64]:
+    """Sign of x, with 0 inside the band |x| <= tol."""
+    return np.where(x > tol, 1, np.where(x < -tol, -1, 0))
+
+
+def _as_rows(values: ArrayLike, field: str) -> tuple[FloatArray, bool]:
+    a = np.asarray(values, dtype=float)
+    single = a.ndim == 1
+    rows = a.reshape(1, -1) if single else a
+    if rows.ndim != 2 or rows.shape[1] != 5:
+        raise InputError(field, f"array of shape {a.shape}", "shape (5,) or (N, 5)")
+    if not np.all(np.isfinite(rows)):
+        bad = rows[~np.all(np.isfinite(rows), axis=1)][0]
+        raise InputError(field, bad.tolist(), "finite values")
+    return rows, single
+
+
+def _result(xoz: NDArray[np.object_], yoz: NDArray[np.object_], single: bool):  # type: ignore[no-untyped-def]
+    if single:
+        return str(xoz[0]), str(yoz[0])
+    return xoz, yoz
+
+
+def _plane_feature_state(
+    offset: FloatArray,
+    tilt: FloatArray,
+    depth: FloatArray,
+    ph: PegHole,
+    offset_tol: float,
+    tilt_tol: float,
+) -> NDArray[np.object_]:
+    labels = _labels(_banded_sign(offset, offset_tol), _banded_sign(tilt, tilt_tol))
+    if ph.fit == "clearance":
+        # eq. (15): no contact while |d ± l sin(theta)/2 ± r cos(theta)| <= R for every sign
+        reach = np.abs(offset) + depth * np.abs(np.sin(tilt)) / 2 + ph.peg_radius * np.cos(tilt)
+        labels = np.where(reach <= ph.hole_radius, "P0", labels)
+    return labels  # interference fit: P0 only at the point d = 0, theta = 0 (eq. 17)
+
+
+def feature_state(
+    features: ArrayLike,
+    peghole: PegHole,
+    *,
+    offset_tol: float = OFFSET_TOL,
+    tilt_tol: float = TILT_TOL,
+):  # type: ignore[no-untyped-def]
+    """Contact state per plane from the features (Fig. 4, eq. 15-17).
+
+    Args:
+        features: (dx, dy, l, theta_x, theta_y), shape (5,) or (N, 5) [m, rad].
+        peghole: The geometry; its fit type selects eq. (15) or eq. (17) for P0.
+        offset_tol: Half-width of the band around d = 0 counted as on the boundary [m].
+        tilt_tol: Half-width of the band around theta = 0 counted as on the boundary [rad].
+
+    Returns:
+        ``(state_xoz, state_yoz)``: two strings for one feature vector, two arrays of strings
+        for a batch.
+    """
+    rows, single = _as_rows(features, "features")
+    dx, dy, depth, thx, thy = rows.T
+    xoz = _plane_feature_state(dx, thy, depth, peghole, offset_tol, tilt_tol)
+    yoz = _plane_feature_state(dy, thx, depth, peghole, offset_tol, tilt_tol)
+    return _result(xoz, yoz, single)
+
+
+def tilt_boundary_angle(depth: ArrayLike, peghole: PegHole) -> FloatArray:
+    """gamma of eq. (29): the angle of the image of theta = 0 in the normalised plane [rad].
+
+    ``tan(gamma) = lever / R`` with the lever of eq. (24) (:meth:`PegHole.boundary_lever`):
+    eq. (29) gives the lever itself, a length; Fig. 6 plots My/(R Fz) against Fx/Fz.
+    """
+    return np.arctan(peghole.boundary_lever(depth) / peghole.hole_radius)  # type: ignore[no-any-return]
+
+
+def normalised_coordinates(
+    response: ArrayLike, depth: ArrayLike, peghole: PegHole
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The offset and tilt indicators of both planes in the normalised plane of Fig. 6.
+
+    Returns ``(u_x, sigma_x, u_y, sigma_y)``: ``u = F/Fz`` and ``sigma`` the signed distance to
+    the image of theta = 0, positive when the tilt of that plane is positive:
+
+    * XOZ: ``u_x = Fx/Fz``, ``sigma_x = cos(gamma) My/(R Fz) - sin(gamma) Fx/Fz``
+    * YOZ: ``u_y = Fy/Fz``, ``sigma_y = cos(gamma) Mx/(R Fz) + sin(gamma) Fy/Fz``
+
+    These rows are the direction matrix of eq. (28) (DESIGN §5). Rows with Fz <= 0 give NaN.
+    """
+    if peghole.friction <= 0:
+        raise ConfigError(
+            "friction", peghole.friction, "> 0: the normalised plane of Fig. 6 divides by Fz"
+        )
+    w = np.asarray(response, dtype=float)
+    fx, fy, fz, mx, my = (w[..., i] for i in range(5))
+    gamma = tilt_boundary_angle(depth, peghole)
+    cg, sg = np.cos(gamma), np.sin(gamma)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = np.where(fz > 0, 1.0 / fz, np.nan)
+    u_x, v_x = fx * inv, my * inv / peghole.hole_radius
+    u_y, v_y = fy * inv, mx * inv / peghole.hole_radius
+    return u_x, cg * v_x - sg * u_x, u_y, cg * v_y + sg * u_y
+
+
+def response_state(
+    response: ArrayLike,
+    depth: ArrayLike,
+    peghole: PegHole,
+    *,
+    offset_band: float = OFFSET_BAND,
+    tilt_band: float = TILT_BAND,
+    fz_min: float = FZ_MIN,
+):  # type: ignore[no-untyped-def]
+    """Contact state per plane from a response, by the boundary mapping (eq. 21, 24, 25).
+
+    Only the nominal geometry enters (R, L, H, mu through gamma): this is the point of boundary
+    mapping, which the robustness study in ``docs/`` measures.
+
+    Args:
+        response: (Fx, Fy, Fz, Mx, My) in {H}, shape (5,) or (N, 5) [N, N·m].
+        depth: insertion depth l [m], a scalar or shape (N,).
+        peghole: The nominal geometry.
+        offset_band: Half-width of the band around Fx/Fz = 0 (resp. Fy/Fz) that counts as d = 0.
+        tilt_band: Half-width of the band around the tilted line that counts as theta = 0.
+        fz_min: Axial force below which the response counts as no contact (P0) [N].
+
+    Returns:
+        ``(state_xoz, state_yoz)`` as :func:`feature_state`.
+    """
+    rows, single = _as_rows(response, "response")
+    depth_arr = np.broadcast_to(np.asarray(depth, dtype=float), (len(rows),))
+    if not np.all(np.isfinite(depth_arr)) or np.any(depth_arr < 0):
+        raise InputError("depth", np.asarray(depth).tolist(), "finite insertion depths >= 0 in m")
+    u_x, s_x, u_y, s_y = normalised_coordinates(rows, depth_arr, peghole)
+    no_contact = ~(rows[:, 2] > fz_min)
+    states = []
+    for u, sigma in ((u_x, s_x), (u_y, s_y)):
+        u0 = np.where(no_contact, 0.0, u)
+        s0 = np.where(no_contact, 0.0, sigma)
+        states.append(_labels(_banded_sign(u0, offset_band), _banded_sign(s0, tilt_band)))
+    # _labels gives "P0" for (0, 0): both bands, or no contact at all (eq. 25)
+    return _result(states[0], states[1], single)

@@ -1,0 +1,31 @@
+"""ament_python package setup for fbcc_ros."""
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = "fbcc_ros"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test", "test.*"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    maintainer="fbcc_ros maintainers",
+    maintainer_email="maintainers@fbcc-ros.dev",
+    description="Feature-Based Compliance Control for peg-in-hole assembly (ROS 2 Jazzy).",
+    license="Apache-2.0",
+    entry_points={
+        "console_scripts": [
+            "fbcc-bench = fbcc_ros.cli.bench:main",
+            "fbcc-maps = fbcc_ros.cli.maps:main",
+            "fbcc-mapping-study = fbcc_ros.cli.mapping_study:main",
+        ],
+    },
+)
