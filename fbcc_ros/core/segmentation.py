@@ -153,11 +153,12 @@ def normalised_coordinates(
     fx, fy, fz, mx, my = (w[..., i] for i in range(5))
     gamma = tilt_boundary_angle(depth, peghole)
     cg, sg = np.cos(gamma), np.sin(gamma)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    # Rows with a vanishing Fz may overflow to inf or NaN here; callers treat them as no contact.
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         inv = np.where(fz > 0, 1.0 / fz, np.nan)
-    u_x, v_x = fx * inv, my * inv / peghole.hole_radius
-    u_y, v_y = fy * inv, mx * inv / peghole.hole_radius
-    return u_x, cg * v_x - sg * u_x, u_y, cg * v_y + sg * u_y
+        u_x, v_x = fx * inv, my * inv / peghole.hole_radius
+        u_y, v_y = fy * inv, mx * inv / peghole.hole_radius
+        return u_x, cg * v_x - sg * u_x, u_y, cg * v_y + sg * u_y
 
 
 def response_state(

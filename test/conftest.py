@@ -1,0 +1,23 @@
+"""Shared fixtures: the paper's simulated peg-hole pairs (Section IV)."""
+
+from __future__ import annotations
+
+import pytest
+
+from fbcc_ros.cli.common import paper_pair
+from fbcc_ros.core.contact import PegHole
+
+
+@pytest.fixture(params=["clearance", "interference"])
+def pair(request: pytest.FixtureRequest) -> PegHole:
+    return paper_pair(request.param)
+
+
+@pytest.fixture
+def clearance() -> PegHole:
+    return paper_pair("clearance")
+
+
+@pytest.fixture
+def interference() -> PegHole:
+    return paper_pair("interference")

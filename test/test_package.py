@@ -1,0 +1,93 @@
+"""The package as users get it: colcon build, the ament layout `ros2 run` relies on, the CLIs."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+VENV_BIN = Path(sys.executable).parent
+EXECUTABLES = ("fbcc-bench", "fbcc-maps", "fbcc-mapping-study")
+
+
+def test_package_xml_is_accepted_by_catkin_pkg() -> None:
+    from catkin_pkg.package import parse_package
+
+    pkg = parse_package(str(ROOT / "package.xml"))
+    assert pkg.name == "fbcc_ros"
+    assert pkg.package_format == 3
+    assert pkg.get_build_type() == "ament_python"
+    pkg.validate()  # raises on an invalid maintainer e-mail, among others
+
+
+@pytest.fixture(scope="module")
+def colcon_install(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    colcon = VENV_BIN / "colcon"
+    if not colcon.exists():
+        pytest.fail(f"colcon is not installed in {VENV_BIN}: run scripts/bootstrap.sh")
+    work = tmp_path_factory.mktemp("colcon")
+    src = work / "src" / "fbcc_ros"
+    shutil.copytree(ROOT, src, ignore=shutil.ignore_patterns(
+        ".venv", ".git", "build", "install", "log", "out", "__pycache__", "*.egg-info"))
+    env = {**os.environ, "PATH": f"{VENV_BIN}:{os.environ['PATH']}"}
+    listed = subprocess.run([str(colcon), "list"], cwd=work, env=env, capture_output=True,
+                            text=True, check=True).stdout
+    assert "fbcc_ros" in listed and "(ros.ament_python)" in listed, listed
+    build = subprocess.run([str(colcon), "build"], cwd=work, env=env, capture_output=True,
+                           text=True)
+    assert build.returncode == 0, build.stdout + build.stderr
+    return work / "install"
+
+
+def test_colcon_installs_what_ros2_run_looks_up(colcon_install: Path) -> None:
+    """`ros2 run fbcc_ros EXE`: package prefix from the ament index, then lib/fbcc_ros/EXE."""
+    from ament_index_python.packages import get_package_prefix
+
+    os.environ["AMENT_PREFIX_PATH"] = str(colcon_install / "fbcc_ros")
+    prefix = Path(get_package_prefix("fbcc_ros"))
+    assert (prefix / "share" / "fbcc_ros" / "package.xml").exists()
+    for exe in EXECUTABLES:
+        path = prefix / "lib" / "fbcc_ros" / exe
+        assert path.exists() and os.access(path, os.X_OK), exe
+    # what `source install/setup.bash` adds: the workspace's site-packages
+    site = next(prefix.glob("lib/python3*/site-packages"))
+    env = {**os.environ, "PYTHONPATH": str(site)}
+    help_run = subprocess.run([str(prefix / "lib" / "fbcc_ros" / "fbcc-maps"), "--help"],
+                              capture_output=True, text=True, env=env, cwd="/")
+    assert help_run.returncode == 0 and "Fig. 5" in help_run.stdout
+
+
+def test_maps_draws_the_figures(tmp_path: Path) -> None:
+    from fbcc_ros.cli import maps
+
+    assert maps.main(["--out", str(tmp_path)]) == 0
+    for name in ("feature_states.png", "response_states.png", "responses.csv"):
+        assert (tmp_path / name).stat().st_size > 1000, name
+
+
+def test_mapping_study_writes_its_tables(tmp_path: Path) -> None:
+    from fbcc_ros.cli import mapping_study
+
+    assert mapping_study.main(["--out", str(tmp_path), "--samples", "200"]) == 0
+    assert "| clearance |" in (tmp_path / "mapping_study.md").read_text()
+    assert (tmp_path / "mapping_study.png").stat().st_size > 1000
+
+
+def test_cli_rejects_an_output_path_that_is_a_file(tmp_path: Path) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    run = subprocess.run([sys.executable, "-m", "fbcc_ros.cli.maps", "--out", str(blocker / "x")],
+                         capture_output=True, text=True, cwd=ROOT)
+    assert run.returncode == 2
+    assert "--out" in run.stderr and "Traceback" not in run.stderr
+
+
+def test_readme_commands_are_what_ci_runs() -> None:
+    readme = (ROOT / "README.md").read_text()
+    assert "bash scripts/demo.sh" in readme and "bash scripts/test.sh" in readme
+    assert "bash scripts/test.sh" in (ROOT / ".ci" / "run").read_text()
