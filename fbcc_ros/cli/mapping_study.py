@@ -18,11 +18,11 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt
 
-from fbcc_ros.cli.common import out_dir, paper_pair  # noqa: E402
-from fbcc_ros.core.mapping_study import classify_study  # noqa: E402
-from fbcc_ros.core.segmentation import STATES  # noqa: E402
+from fbcc_ros.cli.common import out_dir, paper_pair
+from fbcc_ros.core.mapping_study import classify_study
+from fbcc_ros.core.segmentation import STATES
 
 FRICTION_SPREADS = (0.0, 0.1, 0.5)
 CASES = (("off boundary", None), ("dx = 0", "offset"), ("θy = 0", "tilt"),

@@ -18,13 +18,13 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.colors import ListedColormap  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.colors import ListedColormap
 
-from fbcc_ros.cli.common import out_dir, paper_pair  # noqa: E402
-from fbcc_ros.core.contact import FEATURE_NAMES, RESPONSE_NAMES, PegHole  # noqa: E402
-from fbcc_ros.core.segmentation import (  # noqa: E402
+from fbcc_ros.cli.common import out_dir, paper_pair
+from fbcc_ros.core.contact import FEATURE_NAMES, RESPONSE_NAMES, PegHole
+from fbcc_ros.core.segmentation import (
     STATES,
     feature_state,
     normalised_coordinates,
@@ -73,8 +73,9 @@ def response_table(out: Path) -> list[dict[str, object]]:
         r_xoz, r_yoz = response_state(resp, feats[:, 2], ph)
         for i, raw in enumerate(DEMO_FEATURES_MM_DEG):
             row: dict[str, object] = {"fit": fit}
-            row.update({f"{n}[mm|deg]": v for n, v in zip(FEATURE_NAMES, raw)})
-            row.update({f"{n}[N|Nm]": round(float(v), 4) for n, v in zip(RESPONSE_NAMES, resp[i])})
+            row.update({f"{n}[mm|deg]": v for n, v in zip(FEATURE_NAMES, raw, strict=True)})
+            row.update({f"{n}[N|Nm]": round(float(v), 4)
+                        for n, v in zip(RESPONSE_NAMES, resp[i], strict=True)})
             row.update(
                 feature_xoz=f_xoz[i], feature_yoz=f_yoz[i], response_xoz=r_xoz[i],
                 response_yoz=r_yoz[i],

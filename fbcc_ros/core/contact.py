@@ -7,7 +7,8 @@ Geometry (DESIGN §3, and the reading of eq. 5 written down in ``docs/contact-mo
 * Features ``(dx, dy, l, theta_x, theta_y)``. ``theta_x``, ``theta_y`` are the projected tilts of
   the peg axis (right-hand rotations about x and y; eq. 3 read with eq. 14), so the axis leans by
   ``t = (tan theta_y, -tan theta_x)`` horizontally per unit of height. The total tilt is
-  ``tan theta = |t|`` and the lean direction is ``e = t / |t|`` (the paper's ``(cos phi, sin phi)``).
+  ``tan theta = |t|`` and the lean direction is ``e = t / |t|``, the paper's
+  ``(cos phi, sin phi)``.
 * Slices (eq. 5): ``s`` is the height above the peg's lowest point, from ``s_l = 0`` to the top
   face ``s_u = l cos theta``. The slice of the peg at ``s`` is the ellipse of eq. 7, rotated to
   the lean direction (semi-axis ``r / cos theta`` along ``e``, ``r`` across), centred at
@@ -20,8 +21,9 @@ Geometry (DESIGN §3, and the reading of eq. 5 written down in ``docs/contact-mo
 Quadrature: for each ray alpha the contact interval in s is found exactly (the wall point
 ``R (cos alpha, sin alpha)`` lies inside the slice ellipse on an interval of s, because the slice
 centre moves linearly in s), and the smooth penetration ``rho - R`` is integrated over that
-interval by Gauss-Legendre. Only the outer integral over alpha is a uniform (periodic) rule. The
-accuracy against a brute-force 2-D quadrature of eq. 9-13 is pinned in ``test/core/test_contact.py``.
+interval by Gauss-Legendre. Only the outer integral over alpha is a uniform (periodic) rule.
+The accuracy against a brute-force 2-D quadrature of eq. 9-13 is pinned in
+``test/core/test_contact.py``.
 """
 
 from __future__ import annotations
@@ -43,7 +45,7 @@ FEATURE_NAMES = ("dx", "dy", "l", "theta_x", "theta_y")
 #: Order of the responses in every response vector: (Fx, Fy, Fz, Mx, My).
 RESPONSE_NAMES = ("Fx", "Fy", "Fz", "Mx", "My")
 
-#: Young's modulus [Pa] and Poisson's ratio of ABS, the paper's material (typical datasheet values).
+#: Young's modulus [Pa] and Poisson's ratio of ABS, the paper's material (datasheet values).
 ABS_YOUNG = 2.2e9
 ABS_POISSON = 0.35
 
@@ -94,7 +96,8 @@ def lame_stiffness(
             "outer_radius", outer_radius, f"a length in m greater than hole_radius={hole_radius}"
         )
     b2, r2 = outer_radius**2, hole_radius**2
-    compliance = ((b2 + r2) / (b2 - r2) + poisson_hole) / young_hole + (1.0 - poisson_peg) / young_peg
+    hole_term = ((b2 + r2) / (b2 - r2) + poisson_hole) / young_hole
+    compliance = hole_term + (1.0 - poisson_peg) / young_peg
     return 1.0 / compliance
 
 
@@ -332,7 +335,7 @@ def _acting_point(
         z_a = np.full_like(dx, -(ph.hole_depth + ph.base_thickness))
         return z_a, np.zeros_like(dx), np.zeros_like(dx)
     # On the axis, peg_length from the tip centre. By eq. (5) the axis crosses (dx, dy) at
-    # s_mid = (l/2 + r sin theta) cos theta and the tip centre sits at s_tip = r sin theta cos theta.
+    # s_mid = (l/2 + r sin theta) cos theta; the tip centre sits at s_tip = r sin theta cos theta.
     s_mid = (l / 2.0 + ph.peg_radius * sin_t) * cos_t
     s_a = ph.peg_radius * sin_t * cos_t + ph.peg_length * cos_t
     shift = (s_a - s_mid) * tan_t

@@ -134,7 +134,7 @@ def classify_study(
             continue
         truth, _ = feature_state(f, true)
         guess, _ = response_state(true.response(f), f[:, 2], nominal)
-        for t, g in zip(truth, guess):
+        for t, g in zip(truth, guess, strict=True):
             total[t] += 1
             correct[t] += int(t == g)
             confusion[t][g] += 1

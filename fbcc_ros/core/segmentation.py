@@ -48,6 +48,10 @@ TILT_BAND = 0.005
 #: Default axial force under which a response counts as "no contact" [N].
 FZ_MIN = 0.05
 
+#: What feature_state and response_state return: two strings for one vector, two arrays of
+#: strings for a batch.
+StatePair = tuple[str, str] | tuple[NDArray[np.object_], NDArray[np.object_]]
+
 _LETTER = {1: "D", 0: "P", -1: "D^"}
 _LABELS = np.array(
     [[f"{_LETTER[t]}{d}" for d in (-1, 0, 1)] for t in (-1, 0, 1)], dtype=object
@@ -75,7 +79,7 @@ def _as_rows(values: ArrayLike, field: str) -> tuple[FloatArray, bool]:
     return rows, single
 
 
-def _result(xoz: NDArray[np.object_], yoz: NDArray[np.object_], single: bool):  # type: ignore[no-untyped-def]
+def _result(xoz: NDArray[np.object_], yoz: NDArray[np.object_], single: bool) -> StatePair:
     if single:
         return str(xoz[0]), str(yoz[0])
     return xoz, yoz
@@ -103,7 +107,7 @@ def feature_state(
     *,
     offset_tol: float = OFFSET_TOL,
     tilt_tol: float = TILT_TOL,
-):  # type: ignore[no-untyped-def]
+) -> StatePair:
     """Contact state per plane from the features (Fig. 4, eq. 15-17).
 
     Args:
@@ -169,7 +173,7 @@ def response_state(
     offset_band: float = OFFSET_BAND,
     tilt_band: float = TILT_BAND,
     fz_min: float = FZ_MIN,
-):  # type: ignore[no-untyped-def]
+) -> StatePair:
     """Contact state per plane from a response, by the boundary mapping (eq. 21, 24, 25).
 
     Only the nominal geometry enters (R, L, H, mu through gamma): this is the point of boundary

@@ -80,7 +80,8 @@ def test_model_responses_identify_off_boundary_states(pair: PegHole, depth: floa
     assert set(guess_yoz) == {"P0"}
     missed = truth != guess
     # a miss only ever drops the tilt into the band: D1 / D^1 -> P1, D-1 / D^-1 -> P-1
-    assert all(g == "P" + t.lstrip("D^") for t, g in zip(truth[missed], guess[missed]))
+    pairs = zip(truth[missed], guess[missed], strict=True)
+    assert all(g == "P" + t.lstrip("D^") for t, g in pairs)
     if depth >= 5e-3:
         assert not missed.any()
     else:
