@@ -98,6 +98,13 @@ def response_table(out: Path) -> list[dict[str, object]]:
     return rows
 
 
+def _save(fig: plt.Figure, path: Path, rect: tuple[float, float, float, float]) -> Path:
+    fig.tight_layout(rect=rect)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
 def draw_feature_states(out: Path) -> Path:
     """Fig. 5: states in (dx, theta_y) per depth and fit, zoomed so that P0 is visible."""
     states = list(STATES)
@@ -130,11 +137,7 @@ def draw_feature_states(out: Path) -> Path:
                fontsize=8)
     fig.suptitle("Fig. 5 — contact states in V_XOZ (eq. 15-17); dashed: the contact model's "
                  "own no-contact boundary")
-    fig.tight_layout(rect=(0, 0.05, 1, 0.97))
-    path = out / "feature_states.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, out / "feature_states.png", rect=(0, 0.05, 1, 0.97))
 
 
 def draw_response_states(out: Path, n: int = 600, seed: int = 0) -> Path:
@@ -171,11 +174,7 @@ def draw_response_states(out: Path, n: int = 600, seed: int = 0) -> Path:
     fig.suptitle("Fig. 6 — boundary mapping in W_XOZ: dx = 0 ↦ Fx = 0 (eq. 21), θy = 0 ↦ "
                  "tilted line (eq. 24), P0 at the origin (eq. 25)\ndots: model responses of "
                  "random (dx, θy), coloured by their true state")
-    fig.tight_layout(rect=(0, 0, 1, 0.96))
-    path = out / "response_states.png"
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return _save(fig, out / "response_states.png", rect=(0, 0, 1, 0.96))
 
 
 def main(argv: list[str] | None = None) -> int:
