@@ -14,6 +14,7 @@ import argparse
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -29,8 +30,8 @@ CASES = (("off boundary", None), ("dx = 0", "offset"), ("θy = 0", "tilt"),
          ("dx = θy = 0", "both"))
 
 
-def run_study(n: int, seed: int) -> dict[str, object]:
-    results: dict[str, object] = {
+def run_study(n: int, seed: int) -> dict[str, Any]:
+    results: dict[str, Any] = {
         "settings": {
             "samples_per_case": n, "seed": seed, "offset_margin_m": 10e-6,
             "tilt_margin_deg": 0.2, "max_offset_m": 1e-4, "max_tilt_deg": 2.0,
@@ -53,14 +54,13 @@ def run_study(n: int, seed: int) -> dict[str, object]:
     return results
 
 
-def to_markdown(results: dict[str, object]) -> str:
+def to_markdown(results: dict[str, Any]) -> str:
     lines = ["| fit | friction | case | overall | per state (accuracy / samples) |",
              "|---|---|---|---|---|"]
     for key, val in results.items():
         if key == "settings":
             continue
         fit, friction, case = (p.strip() for p in key.split("|"))
-        assert isinstance(val, dict)
         states = ", ".join(f"{s} {d['accuracy']:.2f}/{d['samples']}"
                            for s, d in val["per_state"].items())
         lines.append(f"| {fit} | {friction.split()[1]} | {case} | {val['overall']:.3f} | "
@@ -68,7 +68,7 @@ def to_markdown(results: dict[str, object]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def draw(results: dict[str, object], path: Path) -> None:
+def draw(results: dict[str, Any], path: Path) -> None:
     fig, axes = plt.subplots(2, len(FRICTION_SPREADS), figsize=(15, 7), sharey=True,
                              squeeze=False)
     for i, fit in enumerate(("clearance", "interference")):
@@ -77,7 +77,6 @@ def draw(results: dict[str, object], path: Path) -> None:
             acc = {}
             for name, _ in CASES:
                 val = results[f"{fit} | friction ±{spread:.0%} | {name}"]
-                assert isinstance(val, dict)
                 for s, d in val["per_state"].items():
                     if d["samples"] >= 20:
                         acc[s] = d["accuracy"]

@@ -101,6 +101,23 @@ def lame_stiffness(
     return 1.0 / compliance
 
 
+def as_rows(values: ArrayLike, field: str, finite_as: str) -> tuple[FloatArray, bool]:
+    """Validate feature or response vectors: shape (5,) or (N, 5), all finite.
+
+    Returns the rows as (N, 5) and whether a single vector was given. ``finite_as`` says in the
+    error message what finite values were expected.
+    """
+    a = np.asarray(values, dtype=float)
+    single = a.ndim == 1
+    rows = a.reshape(1, -1) if single else a
+    if rows.ndim != 2 or rows.shape[1] != 5:
+        raise InputError(field, f"array of shape {a.shape}", "shape (5,) or (N, 5)")
+    if not np.all(np.isfinite(rows)):
+        bad = rows[~np.all(np.isfinite(rows), axis=1)][0]
+        raise InputError(field, bad.tolist(), f"finite {finite_as}")
+    return rows, single
+
+
 def _check_positive(field: str, value: float) -> None:
     if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value) and value > 0):
         raise ConfigError(field, value, "a finite number > 0 (SI units)")
@@ -191,14 +208,14 @@ class PegHole:
         ``peg_length - l`` above the top face and the lever is ``l/2 - peg_length + mu R``.
         Depths beyond L are clamped to L: below the hole there is no wall.
         """
-        l_wall = np.minimum(np.asarray(depth, dtype=float), self.hole_depth)
+        l = np.asarray(depth, dtype=float)
+        l_wall = np.minimum(l, self.hole_depth)
         mu_r = self.friction * self.hole_radius
         if self.acting_point == "hole_bottom":
             # eq. (24): My / Fx = -l/2 + L + H + mu R
             return -l_wall / 2.0 + self.hole_depth + self.base_thickness + mu_r
-        depth = np.asarray(depth, dtype=float)
         # acting point at z_A = peg_length - l; mean contact height -l_wall/2
-        return -l_wall / 2.0 - (self.peg_length - depth) + mu_r
+        return -l_wall / 2.0 - (self.peg_length - l) + mu_r
 
     def response(self, features: ArrayLike) -> FloatArray:
         """Responses (Fx, Fy, Fz, Mx, My) for features (dx, dy, l, theta_x, theta_y).
@@ -216,14 +233,7 @@ class PegHole:
             Responses of the same shape; forces in N, moments in N·m. A depth of zero, or a
             peg that touches no wall, gives an exactly zero wrench.
         """
-        f = np.asarray(features, dtype=float)
-        single = f.ndim == 1
-        f2 = f.reshape(1, -1) if single else f
-        if f2.ndim != 2 or f2.shape[1] != 5:
-            raise InputError("features", f"array of shape {f.shape}", "shape (5,) or (N, 5)")
-        if not np.all(np.isfinite(f2)):
-            bad = f2[~np.all(np.isfinite(f2), axis=1)][0]
-            raise InputError("features", bad.tolist(), "finite (dx, dy, l, theta_x, theta_y)")
+        f2, single = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
         if np.any(f2[:, 2] < 0):
             bad_l = float(f2[f2[:, 2] < 0, 2][0])
             raise InputError("features.l", bad_l, "an insertion depth >= 0 in m")
@@ -302,7 +312,7 @@ def _response_chunk(ph: PegHole, f: FloatArray) -> FloatArray:
     g0 = half_len * g.sum(axis=-1)  # ∫ (rho - R) ds per ray
     g1s = half_len * (g * s).sum(axis=-1)  # ∫ (rho - R) s ds per ray
 
-    z_a, ax, ay = _acting_point(ph, dx, dy, l, sin_t, cos_t, tan_t, ex, ey, s_u)
+    z_a, ax, ay = _acting_point(ph, dx, dy, l, sin_t, cos_t, ex, ey, s_u)
     # lever arm of eq. (12)-(13): z - z_A + mu R, with the slice height z = s - s_u
     lever = g1s + (mu * R - s_u - z_a) * g0
 
@@ -325,7 +335,6 @@ def _acting_point(
     l: FloatArray,
     sin_t: FloatArray,
     cos_t: FloatArray,
-    tan_t: FloatArray,
     ex: FloatArray,
     ey: FloatArray,
     s_u: FloatArray,
@@ -334,9 +343,9 @@ def _acting_point(
     if ph.acting_point == "hole_bottom":
         z_a = np.full_like(dx, -(ph.hole_depth + ph.base_thickness))
         return z_a, np.zeros_like(dx), np.zeros_like(dx)
-    # On the axis, peg_length from the tip centre. By eq. (5) the axis crosses (dx, dy) at
-    # s_mid = (l/2 + r sin theta) cos theta; the tip centre sits at s_tip = r sin theta cos theta.
-    s_mid = (l / 2.0 + ph.peg_radius * sin_t) * cos_t
+    # On the axis, peg_length from the tip centre. By eq. (5) the tip centre sits at
+    # s_tip = r sin(theta) cos(theta) and the axis crosses (dx, dy) l/2 further along it, so the
+    # acting point is (peg_length - l/2) along the axis from (dx, dy).
+    along = ph.peg_length - l / 2.0
     s_a = ph.peg_radius * sin_t * cos_t + ph.peg_length * cos_t
-    shift = (s_a - s_mid) * tan_t
-    return s_a - s_u, dx + shift * ex, dy + shift * ey
+    return s_a - s_u, dx + along * sin_t * ex, dy + along * sin_t * ey

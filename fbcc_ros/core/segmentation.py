@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fbcc_ros.core.contact import FloatArray, PegHole
+from fbcc_ros.core.contact import FloatArray, PegHole, as_rows
 from fbcc_ros.core.errors import ConfigError, InputError
 
 #: The nine states of one plane, in the order of Fig. 4.
@@ -65,18 +65,6 @@ def _labels(offset_sign: NDArray[np.int64], tilt_sign: NDArray[np.int64]) -> NDA
 def _banded_sign(x: FloatArray, tol: float) -> NDArray[np.int64]:
     """Sign of x, with 0 inside the band |x| <= tol."""
     return np.where(x > tol, 1, np.where(x < -tol, -1, 0))
-
-
-def _as_rows(values: ArrayLike, field: str) -> tuple[FloatArray, bool]:
-    a = np.asarray(values, dtype=float)
-    single = a.ndim == 1
-    rows = a.reshape(1, -1) if single else a
-    if rows.ndim != 2 or rows.shape[1] != 5:
-        raise InputError(field, f"array of shape {a.shape}", "shape (5,) or (N, 5)")
-    if not np.all(np.isfinite(rows)):
-        bad = rows[~np.all(np.isfinite(rows), axis=1)][0]
-        raise InputError(field, bad.tolist(), "finite values")
-    return rows, single
 
 
 def _result(xoz: NDArray[np.object_], yoz: NDArray[np.object_], single: bool) -> StatePair:
@@ -120,7 +108,7 @@ def feature_state(
         ``(state_xoz, state_yoz)``: two strings for one feature vector, two arrays of strings
         for a batch.
     """
-    rows, single = _as_rows(features, "features")
+    rows, single = as_rows(features, "features", "values")
     dx, dy, depth, thx, thy = rows.T
     xoz = _plane_feature_state(dx, thy, depth, peghole, offset_tol, tilt_tol)
     yoz = _plane_feature_state(dy, thx, depth, peghole, offset_tol, tilt_tol)
@@ -190,7 +178,7 @@ def response_state(
     Returns:
         ``(state_xoz, state_yoz)`` as :func:`feature_state`.
     """
-    rows, single = _as_rows(response, "response")
+    rows, single = as_rows(response, "response", "values")
     depth_arr = np.broadcast_to(np.asarray(depth, dtype=float), (len(rows),))
     if not np.all(np.isfinite(depth_arr)) or np.any(depth_arr < 0):
         raise InputError("depth", np.asarray(depth).tolist(), "finite insertion depths >= 0 in m")
