@@ -162,6 +162,12 @@ def test_bad_response_input(clearance, response, depth, field: str) -> None:
     assert str(err.value).startswith(f"{field}=")
 
 
+def test_depths_must_match_the_responses(clearance) -> None:
+    with pytest.raises(InputError, match=r"depth=.*shape \(3,\).*shape \(5,\)"):
+        response_state(np.ones((5, 5)), [1e-3, 2e-3, 3e-3], clearance)
+    assert len(response_state(np.ones((5, 5)), [4e-3], clearance)[0]) == 5
+
+
 def test_frictionless_geometry_cannot_normalise(clearance) -> None:
     with pytest.raises(ConfigError, match="friction"):
         response_state([1, 0, 1, 0, 0], 5e-3, clearance.replace(friction=0.0))
