@@ -32,14 +32,21 @@ def colcon_install(tmp_path_factory: pytest.TempPathFactory) -> Path:
         pytest.fail(f"colcon is not installed in {VENV_BIN}: run scripts/bootstrap.sh")
     work = tmp_path_factory.mktemp("colcon")
     src = work / "src" / "fbcc_ros"
-    shutil.copytree(ROOT, src, ignore=shutil.ignore_patterns(
-        ".venv", ".git", "build", "install", "log", "out", "__pycache__", "*.egg-info"))
+    shutil.copytree(
+        ROOT,
+        src,
+        ignore=shutil.ignore_patterns(
+            ".venv", ".git", "build", "install", "log", "out", "__pycache__", "*.egg-info"
+        ),
+    )
     env = {**os.environ, "PATH": f"{VENV_BIN}:{os.environ['PATH']}"}
-    listed = subprocess.run([str(colcon), "list"], cwd=work, env=env, capture_output=True,
-                            text=True, check=True).stdout
+    listed = subprocess.run(
+        [str(colcon), "list"], cwd=work, env=env, capture_output=True, text=True, check=True
+    ).stdout
     assert "fbcc_ros" in listed and "(ros.ament_python)" in listed, listed
-    build = subprocess.run([str(colcon), "build"], cwd=work, env=env, capture_output=True,
-                           text=True)
+    build = subprocess.run(
+        [str(colcon), "build"], cwd=work, env=env, capture_output=True, text=True
+    )
     assert build.returncode == 0, build.stdout + build.stderr
     return work / "install"
 
@@ -57,8 +64,13 @@ def test_colcon_installs_what_ros2_run_looks_up(colcon_install: Path) -> None:
     # what `source install/setup.bash` adds: the workspace's site-packages
     site = next(prefix.glob("lib/python3*/site-packages"))
     env = {**os.environ, "PYTHONPATH": str(site)}
-    help_run = subprocess.run([str(prefix / "lib" / "fbcc_ros" / "fbcc-maps"), "--help"],
-                              capture_output=True, text=True, env=env, cwd="/")
+    help_run = subprocess.run(
+        [str(prefix / "lib" / "fbcc_ros" / "fbcc-maps"), "--help"],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd="/",
+    )
     assert help_run.returncode == 0 and "Fig. 5" in help_run.stdout
 
 
@@ -81,8 +93,12 @@ def test_mapping_study_writes_its_tables(tmp_path: Path) -> None:
 def test_cli_rejects_an_output_path_that_is_a_file(tmp_path: Path) -> None:
     blocker = tmp_path / "file"
     blocker.write_text("x")
-    run = subprocess.run([sys.executable, "-m", "fbcc_ros.cli.maps", "--out", str(blocker / "x")],
-                         capture_output=True, text=True, cwd=ROOT)
+    run = subprocess.run(
+        [sys.executable, "-m", "fbcc_ros.cli.maps", "--out", str(blocker / "x")],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
     assert run.returncode == 2
     assert "--out" in run.stderr and "Traceback" not in run.stderr
 

@@ -26,16 +26,20 @@ from fbcc_ros.core.mapping_study import classify_study
 from fbcc_ros.core.segmentation import STATES
 
 FRICTION_SPREADS = (0.0, 0.1, 0.5)
-CASES = (("off boundary", None), ("dx = 0", "offset"), ("θy = 0", "tilt"),
-         ("dx = θy = 0", "both"))
+CASES = (("off boundary", None), ("dx = 0", "offset"), ("θy = 0", "tilt"), ("dx = θy = 0", "both"))
 
 
 def run_study(n: int, seed: int) -> dict[str, Any]:
     results: dict[str, Any] = {
         "settings": {
-            "samples_per_case": n, "seed": seed, "offset_margin_m": 10e-6,
-            "tilt_margin_deg": 0.2, "max_offset_m": 1e-4, "max_tilt_deg": 2.0,
-            "depth_range_m": [1e-3, 10e-3], "stiffness_factor": [0.5, 2.0],
+            "samples_per_case": n,
+            "seed": seed,
+            "offset_margin_m": 10e-6,
+            "tilt_margin_deg": 0.2,
+            "max_offset_m": 1e-4,
+            "max_tilt_deg": 2.0,
+            "depth_range_m": [1e-3, 10e-3],
+            "stiffness_factor": [0.5, 2.0],
             "radii": "uniform within +- half the range of one Table II group",
         }
     }
@@ -43,34 +47,45 @@ def run_study(n: int, seed: int) -> dict[str, Any]:
         ph = paper_pair(fit)
         for spread in FRICTION_SPREADS:
             for name, mode in CASES:
-                res = classify_study(ph, n, seed=seed, on_boundary=mode, friction_spread=spread,
-                                     tilt_margin=math.radians(0.2))
+                res = classify_study(
+                    ph,
+                    n,
+                    seed=seed,
+                    on_boundary=mode,
+                    friction_spread=spread,
+                    tilt_margin=math.radians(0.2),
+                )
                 results[f"{fit} | friction ±{spread:.0%} | {name}"] = {
                     "overall": res.overall(),
-                    "per_state": {s: {"accuracy": res.accuracy(s), "samples": res.total[s]}
-                                  for s in res.total},
+                    "per_state": {
+                        s: {"accuracy": res.accuracy(s), "samples": res.total[s]}
+                        for s in res.total
+                    },
                     "confusion": res.confusion,
                 }
     return results
 
 
 def to_markdown(results: dict[str, Any]) -> str:
-    lines = ["| fit | friction | case | overall | per state (accuracy / samples) |",
-             "|---|---|---|---|---|"]
+    lines = [
+        "| fit | friction | case | overall | per state (accuracy / samples) |",
+        "|---|---|---|---|---|",
+    ]
     for key, val in results.items():
         if key == "settings":
             continue
         fit, friction, case = (p.strip() for p in key.split("|"))
-        states = ", ".join(f"{s} {d['accuracy']:.2f}/{d['samples']}"
-                           for s, d in val["per_state"].items())
-        lines.append(f"| {fit} | {friction.split()[1]} | {case} | {val['overall']:.3f} | "
-                     f"{states} |")
+        states = ", ".join(
+            f"{s} {d['accuracy']:.2f}/{d['samples']}" for s, d in val["per_state"].items()
+        )
+        lines.append(
+            f"| {fit} | {friction.split()[1]} | {case} | {val['overall']:.3f} | {states} |"
+        )
     return "\n".join(lines) + "\n"
 
 
 def draw(results: dict[str, Any], path: Path) -> None:
-    fig, axes = plt.subplots(2, len(FRICTION_SPREADS), figsize=(15, 7), sharey=True,
-                             squeeze=False)
+    fig, axes = plt.subplots(2, len(FRICTION_SPREADS), figsize=(15, 7), sharey=True, squeeze=False)
     for i, fit in enumerate(("clearance", "interference")):
         for j, spread in enumerate(FRICTION_SPREADS):
             ax = axes[i][j]
@@ -88,19 +103,23 @@ def draw(results: dict[str, Any], path: Path) -> None:
             ax.tick_params(axis="x", labelsize=8)
             if j == 0:
                 ax.set_ylabel("identified correctly")
-    fig.suptitle("Boundary mapping on perturbed parts, judged with the nominal geometry "
-                 "(off-boundary states: margin 10 µm / 0.2°)")
+    fig.suptitle(
+        "Boundary mapping on perturbed parts, judged with the nominal geometry "
+        "(off-boundary states: margin 10 µm / 0.2°)"
+    )
     fig.tight_layout(rect=(0, 0, 1, 0.95))
     fig.savefig(path, dpi=100)
     plt.close(fig)
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="fbcc-mapping-study",
-                                     description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="fbcc-mapping-study", description=__doc__.splitlines()[0]
+    )
     parser.add_argument("--out", default="out/mapping_study", help="output folder (created)")
-    parser.add_argument("--samples", type=int, default=4000,
-                        help="samples per case (default 4000)")
+    parser.add_argument(
+        "--samples", type=int, default=4000, help="samples per case (default 4000)"
+    )
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
     if args.samples < 100:
@@ -112,8 +131,10 @@ def main(argv: list[str] | None = None) -> int:
     (out / "mapping_study.md").write_text(md)
     draw(results, out / "mapping_study.png")
     print(md)
-    print(f"wrote {out / 'mapping_study.json'}, {out / 'mapping_study.md'}, "
-          f"{out / 'mapping_study.png'}")
+    print(
+        f"wrote {out / 'mapping_study.json'}, {out / 'mapping_study.md'}, "
+        f"{out / 'mapping_study.png'}"
+    )
     return 0
 
 

@@ -74,10 +74,16 @@ def response_table(out: Path) -> list[dict[str, object]]:
         for i, raw in enumerate(DEMO_FEATURES_MM_DEG):
             row: dict[str, object] = {"fit": fit}
             row.update({f"{n}[mm|deg]": v for n, v in zip(FEATURE_NAMES, raw, strict=True)})
-            row.update({f"{n}[N|Nm]": round(float(v), 4)
-                        for n, v in zip(RESPONSE_NAMES, resp[i], strict=True)})
             row.update(
-                feature_xoz=f_xoz[i], feature_yoz=f_yoz[i], response_xoz=r_xoz[i],
+                {
+                    f"{n}[N|Nm]": round(float(v), 4)
+                    for n, v in zip(RESPONSE_NAMES, resp[i], strict=True)
+                }
+            )
+            row.update(
+                feature_xoz=f_xoz[i],
+                feature_yoz=f_yoz[i],
+                response_xoz=r_xoz[i],
                 response_yoz=r_yoz[i],
             )
             rows.append(row)
@@ -85,16 +91,23 @@ def response_table(out: Path) -> list[dict[str, object]]:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    print(f"{'fit':12s} {'dx':>6s} {'dy':>6s} {'l':>5s} {'thx':>5s} {'thy':>5s}   "
-          f"{'Fx':>8s} {'Fy':>8s} {'Fz':>8s} {'Mx':>8s} {'My':>8s}   feature -> response state")
-    print(f"{'':12s} {'mm':>6s} {'mm':>6s} {'mm':>5s} {'deg':>5s} {'deg':>5s}   "
-          f"{'N':>8s} {'N':>8s} {'N':>8s} {'N·m':>8s} {'N·m':>8s}")
+    print(
+        f"{'fit':12s} {'dx':>6s} {'dy':>6s} {'l':>5s} {'thx':>5s} {'thy':>5s}   "
+        f"{'Fx':>8s} {'Fy':>8s} {'Fz':>8s} {'Mx':>8s} {'My':>8s}   feature -> response state"
+    )
+    print(
+        f"{'':12s} {'mm':>6s} {'mm':>6s} {'mm':>5s} {'deg':>5s} {'deg':>5s}   "
+        f"{'N':>8s} {'N':>8s} {'N':>8s} {'N·m':>8s} {'N·m':>8s}"
+    )
     for row in rows:
         vals = list(row.values())
-        print(f"{vals[0]:12s} " + " ".join(f"{v:6.3f}" if i < 2 else f"{v:5.1f}"
-                                              for i, v in enumerate(vals[1:6]))
-              + "   " + " ".join(f"{v:8.3f}" for v in vals[6:11])
-              + f"   XOZ {vals[11]}->{vals[13]}, YOZ {vals[12]}->{vals[14]}")
+        print(
+            f"{vals[0]:12s} "
+            + " ".join(f"{v:6.3f}" if i < 2 else f"{v:5.1f}" for i, v in enumerate(vals[1:6]))
+            + "   "
+            + " ".join(f"{v:8.3f}" for v in vals[6:11])
+            + f"   XOZ {vals[11]}->{vals[13]}, YOZ {vals[12]}->{vals[14]}"
+        )
     return rows
 
 
@@ -117,15 +130,36 @@ def draw_feature_states(out: Path) -> Path:
         ph = paper_pair(fit)
         for j, depth in enumerate(DEPTHS):
             ax = axes[i][j]
-            f = np.column_stack([DX.ravel(), np.zeros(DX.size), np.full(DX.size, depth),
-                                 np.zeros(DX.size), TH.ravel()])
+            f = np.column_stack(
+                [
+                    DX.ravel(),
+                    np.zeros(DX.size),
+                    np.full(DX.size, depth),
+                    np.zeros(DX.size),
+                    TH.ravel(),
+                ]
+            )
             xoz, _ = feature_state(f, ph)
             idx = np.array([states.index(s) for s in xoz]).reshape(DX.shape)
-            ax.pcolormesh(DX * 1e6, np.degrees(TH), idx, cmap=cmap, vmin=-0.5,
-                          vmax=len(states) - 0.5, shading="auto")
+            ax.pcolormesh(
+                DX * 1e6,
+                np.degrees(TH),
+                idx,
+                cmap=cmap,
+                vmin=-0.5,
+                vmax=len(states) - 0.5,
+                shading="auto",
+            )
             fz = ph.response(f)[:, 2].reshape(DX.shape)
-            ax.contour(DX * 1e6, np.degrees(TH), fz, levels=[1e-3], colors="k",
-                       linestyles="--", linewidths=1.0)
+            ax.contour(
+                DX * 1e6,
+                np.degrees(TH),
+                fz,
+                levels=[1e-3],
+                colors="k",
+                linestyles="--",
+                linewidths=1.0,
+            )
             ax.axhline(0, color="k", lw=0.5)
             ax.axvline(0, color="k", lw=0.5)
             ax.set_title(f"{fit}, l = {depth * 1e3:.0f} mm")
@@ -133,10 +167,13 @@ def draw_feature_states(out: Path) -> Path:
             ax.set_ylabel("θy [deg]")
     handles = [plt.Rectangle((0, 0), 1, 1, fc=COLOURS[s], ec="k", lw=0.3) for s in states]
     handles.append(plt.Line2D([], [], color="k", ls="--"))
-    fig.legend(handles, [*states, "model: Fz = 0 boundary"], loc="lower center", ncol=10,
-               fontsize=8)
-    fig.suptitle("Fig. 5 — contact states in V_XOZ (eq. 15-17); dashed: the contact model's "
-                 "own no-contact boundary")
+    fig.legend(
+        handles, [*states, "model: Fz = 0 boundary"], loc="lower center", ncol=10, fontsize=8
+    )
+    fig.suptitle(
+        "Fig. 5 — contact states in V_XOZ (eq. 15-17); dashed: the contact model's "
+        "own no-contact boundary"
+    )
     return _save(fig, out / "feature_states.png", rect=(0, 0.05, 1, 0.97))
 
 
@@ -149,8 +186,15 @@ def draw_response_states(out: Path, n: int = 600, seed: int = 0) -> Path:
         ph: PegHole = paper_pair(fit)
         for j, depth in enumerate(DEPTHS):
             ax = axes[i][j]
-            f = np.column_stack([rng.uniform(-1e-4, 1e-4, n), np.zeros(n), np.full(n, depth),
-                                 np.zeros(n), rng.uniform(-tilt, tilt, n)])
+            f = np.column_stack(
+                [
+                    rng.uniform(-1e-4, 1e-4, n),
+                    np.zeros(n),
+                    np.full(n, depth),
+                    np.zeros(n),
+                    rng.uniform(-tilt, tilt, n),
+                ]
+            )
             resp = ph.response(f)
             keep = resp[:, 2] > 0.05
             u, _, _, _ = normalised_coordinates(resp[keep], depth, ph)
@@ -171,9 +215,11 @@ def draw_response_states(out: Path, n: int = 600, seed: int = 0) -> Path:
             ax.set_ylabel("My / (R Fz)")
             ax.set_title(f"{fit}, l = {depth * 1e3:.0f} mm")
             ax.legend(fontsize=7, markerscale=2.5, loc="upper left")
-    fig.suptitle("Fig. 6 — boundary mapping in W_XOZ: dx = 0 ↦ Fx = 0 (eq. 21), θy = 0 ↦ "
-                 "tilted line (eq. 24), P0 at the origin (eq. 25)\ndots: model responses of "
-                 "random (dx, θy), coloured by their true state")
+    fig.suptitle(
+        "Fig. 6 — boundary mapping in W_XOZ: dx = 0 ↦ Fx = 0 (eq. 21), θy = 0 ↦ "
+        "tilted line (eq. 24), P0 at the origin (eq. 25)\ndots: model responses of "
+        "random (dx, θy), coloured by their true state"
+    )
     return _save(fig, out / "response_states.png", rect=(0, 0, 1, 0.96))
 
 
@@ -182,8 +228,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", default="out/maps", help="output folder (created)")
     args = parser.parse_args(argv)
     out = out_dir(parser, args.out)
-    print("Contact responses of the paper's pairs (Section IV: R 5.05 / r 5.04 mm clearance, "
-          "R 5.03 / r 5.04 mm interference; L 10 mm)")
+    print(
+        "Contact responses of the paper's pairs (Section IV: R 5.05 / r 5.04 mm clearance, "
+        "R 5.03 / r 5.04 mm interference; L 10 mm)"
+    )
     response_table(out)
     for path in (draw_feature_states(out), draw_response_states(out)):
         print(f"wrote {path}")

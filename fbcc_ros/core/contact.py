@@ -33,6 +33,7 @@ import functools
 import math
 from typing import Literal
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -241,10 +242,6 @@ class PegHole:
         return out[0] if single else out
 
 
-# Rows per chunk in a batch: keeps the (rows, n_angles, nodes) temporaries inside the CPU cache.
-_CHUNK_ROWS = 512
-
-
 @functools.lru_cache(maxsize=8)
 def _angle_table(n_angles: int) -> tuple[FloatArray, FloatArray]:
     """cos and sin of the ray angles: uniform periodic midpoint rule over alpha in [-pi, pi)."""
@@ -253,99 +250,125 @@ def _angle_table(n_angles: int) -> tuple[FloatArray, FloatArray]:
 
 
 def _response(ph: PegHole, f: FloatArray) -> FloatArray:
-    """Vectorised eq. (5)-(13) over N validated feature rows, in cache-sized chunks."""
-    if len(f) <= _CHUNK_ROWS:
-        return _response_chunk(ph, f)
-    return np.concatenate(
-        [_response_chunk(ph, f[i : i + _CHUNK_ROWS]) for i in range(0, len(f), _CHUNK_ROWS)]
-    )
-
-
-def _response_chunk(ph: PegHole, f: FloatArray) -> FloatArray:
-    R, r, mu = ph.hole_radius, ph.peg_radius, ph.friction
-    dx, dy, l, thx, thy = (f[:, i : i + 1] for i in range(5))  # each (N, 1)
-
-    # Lean of the axis per unit height, t = (tan theta_y, -tan theta_x) (right-hand theta_x).
-    # The 1e-300 picks e = +x for an untilted peg without a branch; it is below rounding otherwise.
-    tx, ty = np.tan(thy) + 1e-300, -np.tan(thx)
-    tan_t = np.hypot(tx, ty)
-    ex, ey = tx / tan_t, ty / tan_t
-    cos_t = 1.0 / np.sqrt(1.0 + tan_t * tan_t)
-    sin_t = tan_t * cos_t
-
-    # Midpoint offset in the lean frame (e along the lean, e_perp = z x e across it).
-    m_e = dx * ex + dy * ey
-    m_p = dy * ex - dx * ey
-    # eq. (5) along e: o_e(s) = a0 + s tan(theta), a0 = m_e - (l/2 + r sin theta) sin theta
-    a0 = m_e - (0.5 * l + r * sin_t) * sin_t
-    s_u = l * cos_t  # top face of the hole, s_u = l cos(theta)
-    s_lo = np.maximum(0.0, s_u - ph.hole_depth)  # no wall below the hole's depth L
-
+    """eq. (5)-(13) over N validated feature rows (the compiled kernel below)."""
     ca, sa = _angle_table(ph.n_angles)
-    d_e = ca * ex + sa * ey  # ray direction along e, (N, n_a)
-    d_p = sa * ex - ca * ey  # and across it
-
-    # Contact interval in s: the wall point R d lies inside the slice ellipse (eq. 6-7),
-    #   (R d_e - o_e(s))^2 cos^2(theta) + (R d_p - m_p)^2 <= r^2,
-    # i.e. |R d_e - a0 - s tan(theta)| <= half tan(theta). For an untilted peg tan(theta) is
-    # ~1e-300 and the interval is all of [s_lo, s_u] or empty, as it must be.
-    across = np.maximum(r * r - (R * d_p - m_p) ** 2, 0.0)
-    half = np.sqrt(across) / sin_t  # = sqrt(across) / cos(theta) / tan(theta)
-    centre = (R * d_e - a0) / tan_t
-    s1 = np.maximum(centre - half, s_lo)
-    s2 = np.minimum(centre + half, s_u)
-    half_len = np.maximum(0.5 * (s2 - s1), 0.0)  # (N, n_a); 0 where the ray misses
-    mid = 0.5 * (s1 + s2)
-
-    # Gauss-Legendre nodes on each interval: (N, n_a, n_gl).
-    s = mid[..., None] + half_len[..., None] * _GL_NODES
-    o_e = a0[..., None] + s * tan_t[..., None]
-    cos2 = (cos_t * cos_t)[..., None]
-    de, dp, mp = d_e[..., None], d_p[..., None], m_p[..., None]
-    # Far intersection of the ray with the ellipse: A rho^2 - 2 B rho + C = 0.
-    qa = de * de * cos2 + dp * dp
-    qb = de * o_e * cos2 + dp * mp
-    qc = o_e * o_e * cos2 + (mp * mp - r * r)
-    rho = (qb + np.sqrt(np.maximum(qb * qb - qa * qc, 0.0))) / qa
-    # eq. (8) times the area element R d(alpha) ds: p dA = k (rho - R) d(alpha) ds
-    g = np.maximum(rho - R, 0.0) * _GL_WEIGHTS
-    g0 = half_len * g.sum(axis=-1)  # ∫ (rho - R) ds per ray
-    g1s = half_len * (g * s).sum(axis=-1)  # ∫ (rho - R) s ds per ray
-
-    z_a, ax, ay = _acting_point(ph, dx, dy, l, sin_t, cos_t, ex, ey, s_u)
-    # lever arm of eq. (12)-(13): z - z_A + mu R, with the slice height z = s - s_u
-    lever = g1s + (mu * R - s_u - z_a) * g0
-
-    w = ph.stiffness * (2.0 * math.pi / ph.n_angles)
-    sum_g0 = w * g0.sum(axis=-1)
-    fx = w * (g0 @ ca)  # eq. (9)
-    fy = w * (g0 @ sa)  # eq. (10)
-    fz = mu * sum_g0  # eq. (11)
-    # eq. (12) with the right-hand sign: Mx = -∫(z - z_A + mu R) p R sin(alpha) + mu A_y ∫p R
-    mx = -w * (lever @ sa) + mu * ay[:, 0] * sum_g0
-    # eq. (13): My = ∫(z - z_A + mu R) p R cos(alpha) - mu A_x ∫p R
-    my = w * (lever @ ca) - mu * ax[:, 0] * sum_g0
-    return np.stack([fx, fy, fz, mx, my], axis=-1)
+    out = np.empty((len(f), 5))
+    _response_kernel(
+        np.ascontiguousarray(f),
+        ph.hole_radius,
+        ph.peg_radius,
+        ph.friction,
+        ph.stiffness,
+        ph.hole_depth,
+        ph.base_thickness,
+        ph.acting_point == "peg_top",
+        ph.peg_length,
+        ca,
+        sa,
+        _GL_NODES,
+        _GL_WEIGHTS,
+        out,
+    )
+    return out
 
 
-def _acting_point(
-    ph: PegHole,
-    dx: FloatArray,
-    dy: FloatArray,
-    l: FloatArray,
-    sin_t: FloatArray,
-    cos_t: FloatArray,
-    ex: FloatArray,
-    ey: FloatArray,
-    s_u: FloatArray,
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Position (z_A, x_A, y_A) of the equivalent acting point in {H}, each (N, 1)."""
-    if ph.acting_point == "hole_bottom":
-        z_a = np.full_like(dx, -(ph.hole_depth + ph.base_thickness))
-        return z_a, np.zeros_like(dx), np.zeros_like(dx)
-    # On the axis, peg_length from the tip centre. By eq. (5) the tip centre sits at
-    # s_tip = r sin(theta) cos(theta) and the axis crosses (dx, dy) l/2 further along it, so the
-    # acting point is (peg_length - l/2) along the axis from (dx, dy).
-    along = ph.peg_length - l / 2.0
-    s_a = ph.peg_radius * sin_t * cos_t + ph.peg_length * cos_t
-    return s_a - s_u, dx + along * sin_t * ex, dy + along * sin_t * ey
+# The kernel is compiled by numba (a loop per row, per ray, per node): the closed-loop simulator
+# calls it once per 1 ms step, where numpy's per-call overhead alone would cost ~80 us.
+@numba.njit(cache=True, fastmath=False)  # type: ignore[misc]
+def _response_kernel(
+    f: FloatArray,
+    R: float,
+    r: float,
+    mu: float,
+    k: float,
+    L: float,
+    H: float,
+    peg_top: bool,
+    peg_length: float,
+    ca: FloatArray,
+    sa: FloatArray,
+    gl_x: FloatArray,
+    gl_w: FloatArray,
+    out: FloatArray,
+) -> None:
+    n_a = ca.shape[0]
+    w = k * (2.0 * math.pi / n_a)
+    for i in range(f.shape[0]):
+        dx, dy, l, thx, thy = f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4]
+        # Lean of the axis per unit height, t = (tan theta_y, -tan theta_x) (right-hand
+        # theta_x). The 1e-300 picks e = +x for an untilted peg without a branch; it is below
+        # rounding otherwise.
+        tx, ty = math.tan(thy) + 1e-300, -math.tan(thx)
+        tan_t = math.hypot(tx, ty)
+        ex, ey = tx / tan_t, ty / tan_t
+        cos_t = 1.0 / math.sqrt(1.0 + tan_t * tan_t)
+        sin_t = tan_t * cos_t
+        cos2 = cos_t * cos_t
+
+        # Midpoint offset in the lean frame (e along the lean, e_perp = z x e across it).
+        m_e = dx * ex + dy * ey
+        m_p = dy * ex - dx * ey
+        # eq. (5) along e: o_e(s) = a0 + s tan(theta), a0 = m_e - (l/2 + r sin theta) sin theta
+        a0 = m_e - (0.5 * l + r * sin_t) * sin_t
+        s_u = l * cos_t  # top face of the hole, s_u = l cos(theta)
+        s_lo = max(0.0, s_u - L)  # no wall below the hole's depth L
+
+        # Equivalent acting point (z_A, x_A, y_A) in {H}.
+        if peg_top:
+            # On the axis, peg_length from the tip centre. By eq. (5) the tip centre sits at
+            # s_tip = r sin(theta) cos(theta) and the axis crosses (dx, dy) l/2 further along
+            # it, so the acting point is (peg_length - l/2) along the axis from (dx, dy).
+            along = peg_length - 0.5 * l
+            z_a = r * sin_t * cos_t + peg_length * cos_t - s_u
+            x_a, y_a = dx + along * sin_t * ex, dy + along * sin_t * ey
+        else:
+            z_a, x_a, y_a = -(L + H), 0.0, 0.0
+        # lever arm of eq. (12)-(13): z - z_A + mu R, with the slice height z = s - s_u
+        arm = mu * R - s_u - z_a
+
+        sum_c = sum_s = sum_g0 = lev_c = lev_s = 0.0
+        for j in range(n_a):
+            d_e = ca[j] * ex + sa[j] * ey  # ray direction along e
+            d_p = sa[j] * ex - ca[j] * ey  # and across it
+            # Contact interval in s: the wall point R d lies inside the slice ellipse (eq. 6-7),
+            #   (R d_e - o_e(s))^2 cos^2(theta) + (R d_p - m_p)^2 <= r^2,
+            # i.e. |R d_e - a0 - s tan(theta)| <= half tan(theta). For an untilted peg
+            # tan(theta) is ~1e-300 and the interval is all of [s_lo, s_u] or empty.
+            across = r * r - (R * d_p - m_p) ** 2
+            if across <= 0.0:
+                continue
+            half = math.sqrt(across) / sin_t  # = sqrt(across) / cos(theta) / tan(theta)
+            centre = (R * d_e - a0) / tan_t
+            s1 = max(centre - half, s_lo)
+            s2 = min(centre + half, s_u)
+            if s2 <= s1:
+                continue  # the ray misses the peg
+            half_len, mid = 0.5 * (s2 - s1), 0.5 * (s1 + s2)
+            g0 = g1s = 0.0  # ∫ (rho - R) ds and ∫ (rho - R) s ds along the ray
+            for q in range(gl_x.shape[0]):
+                s = mid + half_len * gl_x[q]
+                o_e = a0 + s * tan_t
+                # Far intersection of the ray with the ellipse: A rho^2 - 2 B rho + C = 0.
+                qa = d_e * d_e * cos2 + d_p * d_p
+                qb = d_e * o_e * cos2 + d_p * m_p
+                qc = o_e * o_e * cos2 + (m_p * m_p - r * r)
+                rho = (qb + math.sqrt(max(qb * qb - qa * qc, 0.0))) / qa
+                if rho > R:
+                    g0 += gl_w[q] * (rho - R)
+                    g1s += gl_w[q] * (rho - R) * s
+            g0 *= half_len
+            g1s *= half_len
+            lever = g1s + arm * g0
+            # eq. (8) times the area element R d(alpha) ds: p dA = k (rho - R) d(alpha) ds
+            sum_g0 += g0
+            sum_c += g0 * ca[j]
+            sum_s += g0 * sa[j]
+            lev_c += lever * ca[j]
+            lev_s += lever * sa[j]
+        out[i, 0] = w * sum_c  # eq. (9)
+        out[i, 1] = w * sum_s  # eq. (10)
+        out[i, 2] = mu * w * sum_g0  # eq. (11)
+        # eq. (12) with the right-hand sign: Mx = -∫(z - z_A + mu R) p R sin(alpha) + mu A_y ∫p R
+        out[i, 3] = -w * lev_s + mu * y_a * w * sum_g0
+        # eq. (13): My = ∫(z - z_A + mu R) p R cos(alpha) - mu A_x ∫p R
+        out[i, 4] = w * lev_c - mu * x_a * w * sum_g0

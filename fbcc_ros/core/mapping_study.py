@@ -54,9 +54,7 @@ class StudyResult:
         return sum(self.correct.values()) / n if n else math.nan
 
 
-def perturbed(
-    nominal: PegHole, rng: np.random.Generator, friction_spread: float = 0.5
-) -> PegHole:
+def perturbed(nominal: PegHole, rng: np.random.Generator, friction_spread: float = 0.5) -> PegHole:
     """A random 'true' geometry around the nominal one (see the module docstring).
 
     ``friction_spread`` is the relative half-range of mu (0.5: x U(0.5, 1.5)).

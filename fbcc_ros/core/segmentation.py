@@ -181,8 +181,11 @@ def response_state(
     rows, single = as_rows(response, "response", "values")
     depth_in = np.asarray(depth, dtype=float)
     if depth_in.shape not in ((), (1,), (len(rows),)):
-        raise InputError("depth", f"array of shape {depth_in.shape}",
-                         f"a scalar or shape ({len(rows)},), one depth per response")
+        raise InputError(
+            "depth",
+            f"array of shape {depth_in.shape}",
+            f"a scalar or shape ({len(rows)},), one depth per response",
+        )
     depth_arr = np.broadcast_to(depth_in, (len(rows),))
     if not np.all(np.isfinite(depth_arr)) or np.any(depth_arr < 0):
         raise InputError("depth", np.asarray(depth).tolist(), "finite insertion depths >= 0 in m")

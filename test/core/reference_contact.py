@@ -16,7 +16,12 @@ from fbcc_ros.core.contact import PegHole
 def reference_response(ph: PegHole, features, n_s: int = 1200, n_alpha: int = 2400) -> np.ndarray:
     dx, dy, l, thx, thy = (float(v) for v in features)
     R, r, mu, k, L, H = (
-        ph.hole_radius, ph.peg_radius, ph.friction, ph.stiffness, ph.hole_depth, ph.base_thickness
+        ph.hole_radius,
+        ph.peg_radius,
+        ph.friction,
+        ph.stiffness,
+        ph.hole_depth,
+        ph.base_thickness,
     )
     # Total tilt theta and lean direction phi from the projected tilts (eq. 3, right-hand theta_x).
     theta = math.atan(math.hypot(math.tan(thy), math.tan(thx)))

@@ -43,9 +43,15 @@ def test_within_one_percent_of_brute_force_quadrature(pair: PegHole, features) -
 
 def test_batch_equals_rows(pair: PegHole) -> None:
     rng = np.random.default_rng(3)
-    f = np.column_stack([rng.uniform(-1e-4, 1e-4, 1200), rng.uniform(-1e-4, 1e-4, 1200),
-                         rng.uniform(0, 12e-3, 1200), rng.uniform(-0.04, 0.04, 1200),
-                         rng.uniform(-0.04, 0.04, 1200)])
+    f = np.column_stack(
+        [
+            rng.uniform(-1e-4, 1e-4, 1200),
+            rng.uniform(-1e-4, 1e-4, 1200),
+            rng.uniform(0, 12e-3, 1200),
+            rng.uniform(-0.04, 0.04, 1200),
+            rng.uniform(-0.04, 0.04, 1200),
+        ]
+    )
     batch = pair.response(f)
     assert batch.shape == (1200, 5)
     rows = np.array([pair.response(x) for x in f[::97]])
@@ -102,8 +108,7 @@ def test_untilted_response_lies_on_eq24_line(pair: PegHole, depth: float) -> Non
 def test_eq20_holds_only_to_first_order(pair: PegHole, tilt_deg: float, depth: float) -> None:
     """Fx vanishes at dx = r sin(theta) tan(theta), not at dx = 0: the r sin(theta) of eq. 5."""
     th = tilt_deg * DEG
-    root = brentq(lambda d: pair.response([d, 0.0, depth, 0.0, th])[0], -3e-5, 3e-5,
-                  xtol=1e-13)
+    root = brentq(lambda d: pair.response([d, 0.0, depth, 0.0, th])[0], -3e-5, 3e-5, xtol=1e-13)
     predicted = pair.peg_radius * math.sin(th) * math.tan(th)
     np.testing.assert_allclose(root, predicted, rtol=0.02)
     assert pair.response([0.0, 0.0, depth, 0.0, th])[0] < 0  # dx = 0 reads as a negative offset
@@ -156,10 +161,17 @@ def test_fit_type(clearance, interference) -> None:
 
 @pytest.mark.parametrize(
     ("field", "value", "words"),
-    [("hole_radius", 0.0, "> 0"), ("peg_radius", -5e-3, "> 0"), ("stiffness", 0.0, "> 0"),
-     ("hole_depth", float("nan"), "> 0"), ("friction", 1.0, "[0, 1)"),
-     ("friction", -0.1, "[0, 1)"), ("base_thickness", -1e-3, ">= 0"),
-     ("acting_point", "wrist", "hole_bottom"), ("n_angles", 30, "multiple of 4")],
+    [
+        ("hole_radius", 0.0, "> 0"),
+        ("peg_radius", -5e-3, "> 0"),
+        ("stiffness", 0.0, "> 0"),
+        ("hole_depth", float("nan"), "> 0"),
+        ("friction", 1.0, "[0, 1)"),
+        ("friction", -0.1, "[0, 1)"),
+        ("base_thickness", -1e-3, ">= 0"),
+        ("acting_point", "wrist", "hole_bottom"),
+        ("n_angles", 30, "multiple of 4"),
+    ],
 )
 def test_bad_geometry_names_field_value_and_what_is_allowed(
     clearance: PegHole, field: str, value: object, words: str
@@ -172,9 +184,13 @@ def test_bad_geometry_names_field_value_and_what_is_allowed(
 
 @pytest.mark.parametrize(
     ("features", "field"),
-    [([0, 0, 5e-3, float("nan"), 0], "features"), ([0, 0, float("inf"), 0, 0], "features"),
-     ([0, 0, -1e-3, 0, 0], "features.l"), ([0, 0, 5e-3, 0], "features"),
-     (np.zeros((3, 4)), "features")],
+    [
+        ([0, 0, 5e-3, float("nan"), 0], "features"),
+        ([0, 0, float("inf"), 0, 0], "features"),
+        ([0, 0, -1e-3, 0, 0], "features.l"),
+        ([0, 0, 5e-3, 0], "features"),
+        (np.zeros((3, 4)), "features"),
+    ],
 )
 def test_bad_features_are_rejected(clearance: PegHole, features, field: str) -> None:
     with pytest.raises(InputError) as err:
@@ -183,8 +199,11 @@ def test_bad_features_are_rejected(clearance: PegHole, features, field: str) -> 
 
 
 feature_rows = st.tuples(
-    st.floats(-2e-4, 2e-4), st.floats(-2e-4, 2e-4), st.floats(0.0, 15e-3),
-    st.floats(-0.06, 0.06), st.floats(-0.06, 0.06),
+    st.floats(-2e-4, 2e-4),
+    st.floats(-2e-4, 2e-4),
+    st.floats(0.0, 15e-3),
+    st.floats(-0.06, 0.06),
+    st.floats(-0.06, 0.06),
 )
 
 

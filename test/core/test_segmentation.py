@@ -27,7 +27,7 @@ HAT_FLIP = {"D": "D^", "D^": "D", "P": "P"}
 
 def _flip_hat(state: str) -> str:
     letter = "D^" if state.startswith("D^") else state[0]
-    return HAT_FLIP[letter] + state[len(letter):]
+    return HAT_FLIP[letter] + state[len(letter) :]
 
 
 @pytest.mark.parametrize(
@@ -46,8 +46,9 @@ def _flip_hat(state: str) -> str:
         ((-5e-5, 0.0, 5e-3, 0.0, -1 * DEG), "D^-1", "D^-1"),
     ],
 )
-def test_feature_state_xoz(clearance, interference, features, clearance_state,
-                           interference_state) -> None:
+def test_feature_state_xoz(
+    clearance, interference, features, clearance_state, interference_state
+) -> None:
     assert feature_state(features, clearance)[0] == clearance_state
     assert feature_state(features, interference)[0] == interference_state
 
@@ -106,8 +107,9 @@ def test_dx_zero_boundary_moves_with_tilt(pair: PegHole) -> None:
     """
     shifts = []
     for tilt in (0.5, 1.0, 2.0):
-        u, _, _, _ = normalised_coordinates(pair.response([0, 0, 10e-3, 0, tilt * DEG]),
-                                            10e-3, pair)
+        u, _, _, _ = normalised_coordinates(
+            pair.response([0, 0, 10e-3, 0, tilt * DEG]), 10e-3, pair
+        )
         shifts.append(abs(float(u)))
     assert shifts[0] < shifts[1] < shifts[2]
     assert shifts[0] < OFFSET_BAND < shifts[2]  # D0 is recognised at small tilt only
@@ -153,8 +155,12 @@ def test_no_contact_is_p0(clearance) -> None:
 
 @pytest.mark.parametrize(
     ("response", "depth", "field"),
-    [([1, 0, 1, 0], 5e-3, "response"), ([1, 0, float("nan"), 0, 0], 5e-3, "response"),
-     ([1, 0, 1, 0, 0], -1e-3, "depth"), ([1, 0, 1, 0, 0], float("inf"), "depth")],
+    [
+        ([1, 0, 1, 0], 5e-3, "response"),
+        ([1, 0, float("nan"), 0, 0], 5e-3, "response"),
+        ([1, 0, 1, 0, 0], -1e-3, "depth"),
+        ([1, 0, 1, 0, 0], float("inf"), "depth"),
+    ],
 )
 def test_bad_response_input(clearance, response, depth, field: str) -> None:
     with pytest.raises(InputError) as err:
