@@ -31,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+from collections.abc import Sequence
 from typing import Literal
 
 import numba
@@ -238,8 +239,12 @@ class PegHole:
         if np.any(f2[:, 2] < 0):
             bad_l = float(f2[f2[:, 2] < 0, 2][0])
             raise InputError("features.l", bad_l, "an insertion depth >= 0 in m")
-        out = _response(self, f2)
+        out = self._batch.response(f2)
         return out[0] if single else out
+
+    @functools.cached_property
+    def _batch(self) -> ContactBatch:
+        return ContactBatch.of([self])
 
 
 @functools.lru_cache(maxsize=8)
@@ -249,27 +254,79 @@ def _angle_table(n_angles: int) -> tuple[FloatArray, FloatArray]:
     return np.cos(alpha), np.sin(alpha)
 
 
-def _response(ph: PegHole, f: FloatArray) -> FloatArray:
-    """eq. (5)-(13) over N validated feature rows (the compiled kernel below)."""
-    ca, sa = _angle_table(ph.n_angles)
-    out = np.empty((len(f), 5))
-    _response_kernel(
-        np.ascontiguousarray(f),
-        ph.hole_radius,
-        ph.peg_radius,
-        ph.friction,
-        ph.stiffness,
-        ph.hole_depth,
-        ph.base_thickness,
-        ph.acting_point == "peg_top",
-        ph.peg_length,
-        ca,
-        sa,
-        _GL_NODES,
-        _GL_WEIGHTS,
-        out,
-    )
-    return out
+@dataclasses.dataclass(frozen=True, eq=False)
+class ContactBatch:
+    """Several peg-hole pairs evaluated in one call, one pair per feature row.
+
+    The closed-loop simulator steps a whole Monte Carlo batch at once, each trial with its own
+    manufacturing tolerances. Build it with :meth:`of`; a batch of one pair serves any number of
+    rows (that is what :meth:`PegHole.response` uses).
+
+    Attributes:
+        table: (7, N) rows R, r, mu, k, L, H, peg_length [SI], one column per pair.
+        peg_top: Whether the moments are taken at the peg's top face (else the hole bottom).
+        n_angles: Points of the periodic rule over alpha.
+    """
+
+    table: FloatArray
+    peg_top: bool
+    n_angles: int
+
+    @classmethod
+    def of(cls, pegholes: Sequence[PegHole]) -> ContactBatch:
+        """The batch of the given pairs; they must share the acting point and the rule."""
+        if not pegholes:
+            raise ConfigError("pegholes", [], "at least one PegHole")
+        first = pegholes[0]
+        for ph in pegholes:
+            if (ph.acting_point, ph.n_angles) != (first.acting_point, first.n_angles):
+                raise ConfigError(
+                    "pegholes",
+                    f"acting_point={ph.acting_point}, n_angles={ph.n_angles}",
+                    f"the same as the first pair ({first.acting_point}, {first.n_angles})",
+                )
+        table = np.array(
+            [
+                [
+                    ph.hole_radius,
+                    ph.peg_radius,
+                    ph.friction,
+                    ph.stiffness,
+                    ph.hole_depth,
+                    ph.base_thickness,
+                    ph.peg_length,
+                ]
+                for ph in pegholes
+            ]
+        ).T.copy()
+        return cls(table, first.acting_point == "peg_top", first.n_angles)
+
+    def __len__(self) -> int:
+        return int(self.table.shape[1])
+
+    def response(self, features: FloatArray) -> FloatArray:
+        """eq. (5)-(13) for validated rows of shape (N, 5): row i uses pair i (or the only one).
+
+        No validation here: this is the simulator's inner loop. :meth:`PegHole.response` is the
+        checked entry point.
+        """
+        if len(self) not in (1, len(features)):
+            raise InputError(
+                "features", f"{len(features)} rows", f"{len(self)} rows, one per pair"
+            )
+        ca, sa = _angle_table(self.n_angles)
+        out = np.empty((len(features), 5))
+        _response_kernel(
+            np.ascontiguousarray(features, dtype=float),
+            self.table,
+            self.peg_top,
+            ca,
+            sa,
+            _GL_NODES,
+            _GL_WEIGHTS,
+            out,
+        )
+        return out
 
 
 # The kernel is compiled by numba (a loop per row, per ray, per node): the closed-loop simulator
@@ -277,14 +334,8 @@ def _response(ph: PegHole, f: FloatArray) -> FloatArray:
 @numba.njit(cache=True, fastmath=False)  # type: ignore[misc]
 def _response_kernel(
     f: FloatArray,
-    R: float,
-    r: float,
-    mu: float,
-    k: float,
-    L: float,
-    H: float,
+    table: FloatArray,
     peg_top: bool,
-    peg_length: float,
     ca: FloatArray,
     sa: FloatArray,
     gl_x: FloatArray,
@@ -292,8 +343,11 @@ def _response_kernel(
     out: FloatArray,
 ) -> None:
     n_a = ca.shape[0]
-    w = k * (2.0 * math.pi / n_a)
     for i in range(f.shape[0]):
+        c = i if table.shape[1] > 1 else 0  # the pair of this row
+        R, r, mu, k = table[0, c], table[1, c], table[2, c], table[3, c]
+        L, H, peg_length = table[4, c], table[5, c], table[6, c]
+        w = k * (2.0 * math.pi / n_a)
         dx, dy, l, thx, thy = f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4]
         # Lean of the axis per unit height, t = (tan theta_y, -tan theta_x) (right-hand
         # theta_x). The 1e-300 picks e = +x for an untilted peg without a branch; it is below
