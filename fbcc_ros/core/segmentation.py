@@ -124,6 +124,32 @@ def tilt_boundary_angle(depth: ArrayLike, peghole: PegHole) -> FloatArray:
     return np.arctan(peghole.boundary_lever(depth) / peghole.hole_radius)  # type: ignore[no-any-return]
 
 
+def direction_matrix(depth: ArrayLike, peghole: PegHole) -> FloatArray:
+    """The direction matrix A(l) of eq. (28), shape (5, 5) or (N, 5, 5) for N depths.
+
+    Read per DESIGN §5 from the boundary mapping (eq. 21, 24): the offsets are judged from the
+    lateral forces alone; each tilt from the signed distance of the response to the image of
+    theta = 0 in the plane of Fig. 6, scaled by Fz (so ``A F`` needs no division):
+
+    .. math::
+        A(l) = \\begin{bmatrix} 1 & & & & \\\\ & 1 & & & \\\\ & & 1 & & \\\\
+               & \\sin\\gamma & & \\cos\\gamma / R & \\\\
+               -\\sin\\gamma & & & & \\cos\\gamma / R \\end{bmatrix}
+
+    with rows (dx, dy, l, theta_x, theta_y) and columns (Fx, Fy, Fz, Mx, My). The paper's
+    layout is garbled; its theta_x row has ``-sin(gamma)`` because its eq. (12) flips the sign
+    of Mx. With right-hand moments (DESIGN §3) both Mx and the image of theta_x = 0 flip sign,
+    hence ``+sin(gamma)`` here; the 90° rotation test of ``response_state`` pins it.
+    """
+    gamma = tilt_boundary_angle(depth, peghole)
+    cg_r, sg = np.cos(gamma) / peghole.hole_radius, np.sin(gamma)
+    a = np.zeros((*np.shape(gamma), 5, 5))
+    a[..., 0, 0] = a[..., 1, 1] = a[..., 2, 2] = 1.0
+    a[..., 3, 1], a[..., 3, 3] = sg, cg_r  # theta_x: sin(gamma) Fy + cos(gamma) Mx / R
+    a[..., 4, 0], a[..., 4, 4] = -sg, cg_r  # theta_y: -sin(gamma) Fx + cos(gamma) My / R
+    return a
+
+
 def normalised_coordinates(
     response: ArrayLike, depth: ArrayLike, peghole: PegHole
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -135,22 +161,19 @@ def normalised_coordinates(
     * XOZ: ``u_x = Fx/Fz``, ``sigma_x = cos(gamma) My/(R Fz) - sin(gamma) Fx/Fz``
     * YOZ: ``u_y = Fy/Fz``, ``sigma_y = cos(gamma) Mx/(R Fz) + sin(gamma) Fy/Fz``
 
-    These rows are the direction matrix of eq. (28) (DESIGN §5). Rows with Fz <= 0 give NaN.
+    That is ``A(l) F / Fz`` with A of :func:`direction_matrix`. Rows with Fz <= 0 give NaN.
     """
     if peghole.friction <= 0:
         raise ConfigError(
             "friction", peghole.friction, "> 0: the normalised plane of Fig. 6 divides by Fz"
         )
     w = np.asarray(response, dtype=float)
-    fx, fy, fz, mx, my = (w[..., i] for i in range(5))
-    gamma = tilt_boundary_angle(depth, peghole)
-    cg, sg = np.cos(gamma), np.sin(gamma)
+    a_w = np.einsum("...ij,...j->...i", direction_matrix(depth, peghole), w)
+    fz = w[..., 2]
     # Rows with a vanishing Fz may overflow to inf or NaN here; callers treat them as no contact.
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         inv = np.where(fz > 0, 1.0 / fz, np.nan)
-        u_x, v_x = fx * inv, my * inv / peghole.hole_radius
-        u_y, v_y = fy * inv, mx * inv / peghole.hole_radius
-        return u_x, cg * v_x - sg * u_x, u_y, cg * v_y + sg * u_y
+        return a_w[..., 0] * inv, a_w[..., 4] * inv, a_w[..., 1] * inv, a_w[..., 3] * inv
 
 
 def response_state(
