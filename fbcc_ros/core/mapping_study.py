@@ -54,17 +54,23 @@ class StudyResult:
         return sum(self.correct.values()) / n if n else math.nan
 
 
-def perturbed(nominal: PegHole, rng: np.random.Generator, friction_spread: float = 0.5) -> PegHole:
+def perturbed(
+    nominal: PegHole,
+    rng: np.random.Generator,
+    friction_spread: float = 0.5,
+    stiffness_octaves: float = 1.0,
+) -> PegHole:
     """A random 'true' geometry around the nominal one (see the module docstring).
 
-    ``friction_spread`` is the relative half-range of mu (0.5: x U(0.5, 1.5)).
+    ``friction_spread`` is the relative half-range of mu (0.5: x U(0.5, 1.5));
+    ``stiffness_octaves`` that of k in octaves (1: x 2^U(-1, 1)). Zero keeps the nominal value.
     """
     peg_half, hole_half = radius_spreads()[rng.integers(3)]
     return nominal.replace(
         peg_radius=nominal.peg_radius + rng.uniform(-peg_half, peg_half),
         hole_radius=nominal.hole_radius + rng.uniform(-hole_half, hole_half),
         friction=nominal.friction * rng.uniform(1.0 - friction_spread, 1.0 + friction_spread),
-        stiffness=nominal.stiffness * 2.0 ** rng.uniform(-1.0, 1.0),
+        stiffness=nominal.stiffness * 2.0 ** rng.uniform(-stiffness_octaves, stiffness_octaves),
     )
 
 

@@ -1,0 +1,269 @@
+"""Scenario files of the closed-loop simulator: schema, defaults, validation (DESIGN §4).
+
+A scenario is a mapping (usually YAML) with these keys; every key but ``geometry`` and
+``initial`` has a default:
+
+=============  ========================================================================
+geometry       the PegHole fields [m, Pa]: hole_radius, peg_radius, hole_depth,
+               base_thickness, friction, stiffness (default: Lamé, ABS, outer radius 2R),
+               acting_point (hole_bottom), peg_length (0.05), n_angles (48)
+controller     type: fbcc | admittance | none, or a list of them to compare (default fbcc);
+               params: label (Table I, default 3) and any ComplianceParams field
+initial        the unknown deviation of the hole: dx, dy [m], theta_x, theta_y [rad]
+insertion      depth (default: hole_depth) [m], speed (0.005) [m/s]
+sensor         noise: standard deviations of (Fx, Fy, Fz, Mx, My) [N, N·m] or 0
+               (default 0.05 N, 0.002 N·m); bias: (Fx, Fy, Fz, Mx, My) (default 0)
+robot          lag: time constant of the position-controlled robot [s] (0.005)
+tolerance      success tolerances: offset [m] (2e-5), tilt [rad] (0.0035), depth [m] (1e-5),
+               force [N] (1.0): a plane whose lateral force is below it counts as settled
+rate_hz        control and simulation rate [Hz] (1000)
+duration       simulated time [s] (default: depth / speed + 2)
+seed           seed of the sensor noise (0)
+=============  ========================================================================
+
+Values that smell of the wrong unit (a radius of 5, a tilt of 2) are refused with the key, the
+value and the range we expect in SI units: the check is a plausibility range, not physics.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from fbcc_ros.core.contact import FloatArray, PegHole, lame_stiffness
+from fbcc_ros.core.control import LAWS, ComplianceParams, Insertion
+from fbcc_ros.core.errors import ConfigError
+
+#: Plausibility ranges (SI): a value outside smells of mm, degrees or GPa given by mistake.
+_LENGTH_MAX = 0.5  # [m] radii and depths of a peg for a robot cell
+_OFFSET_MAX = 0.01  # [m] an initial offset of more than 10 mm is not a compliance problem
+_TILT_MAX = 0.35  # [rad] 20°
+_SPEED_MAX = 0.1  # [m/s]
+_STIFFNESS_RANGE = (1e6, 1e12)  # [Pa] foams to steels
+_FIT_MAX = 0.05  # |R - r| / R: a fit differs by microns, not by a twentieth of the radius
+
+DEFAULT_NOISE = (0.05, 0.05, 0.05, 0.002, 0.002)  # [N, N·m] a 6-axis F/T sensor's noise
+DEFAULT_LAG = 0.005  # [s]
+DEFAULT_TOLERANCE = {"offset": 2e-5, "tilt": 0.0035, "depth": 1e-5, "force": 1.0}
+DEFAULT_OUTER_FACTOR = 2.0  # b = 2R for the default stiffness
+
+
+@dataclasses.dataclass(frozen=True)
+class Tolerance:
+    """What counts as assembled (see :mod:`fbcc_ros.core.simulation`): per plane |d| <= offset
+    [m] and |theta| <= tilt [rad], or the lateral force <= force [N]; the depth within ``depth``
+    [m] of the final depth."""
+
+    offset: float = DEFAULT_TOLERANCE["offset"]
+    tilt: float = DEFAULT_TOLERANCE["tilt"]
+    depth: float = DEFAULT_TOLERANCE["depth"]
+    force: float = DEFAULT_TOLERANCE["force"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Scenario:
+    """A validated scenario (see the module doc for the keys)."""
+
+    geometry: PegHole
+    laws: tuple[str, ...]
+    params: ComplianceParams
+    initial: FloatArray  # the hole's unknown deviation as features (dx, dy, 0, theta_x, theta_y)
+    insertion: Insertion
+    noise: FloatArray
+    bias: FloatArray
+    lag: float
+    tolerance: Tolerance
+    rate_hz: float
+    duration: float
+    seed: int
+    name: str = "scenario"
+
+    @property
+    def law(self) -> str:
+        """The single law of a one-law scenario."""
+        if len(self.laws) != 1:
+            raise ConfigError("controller.type", list(self.laws), "a single law here")
+        return self.laws[0]
+
+    def with_law(self, law: str) -> Scenario:
+        return dataclasses.replace(self, laws=(law,))
+
+    @property
+    def steps(self) -> int:
+        return round(self.duration * self.rate_hz)
+
+
+def _number(
+    key: str, value: Any, low: float, high: float, unit: str, *, low_open: bool = False
+) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(key, value, f"a number in {unit}")
+    v = float(value)
+    ok = math.isfinite(v) and (v > low if low_open else v >= low) and v <= high
+    if not ok:
+        bracket = "(" if low_open else "["
+        raise ConfigError(key, value, f"a value in {bracket}{low:g}, {high:g}] {unit}")
+    return v
+
+
+def _mapping(
+    key: str, value: Any, allowed: tuple[str, ...], required: tuple[str, ...] = ()
+) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise ConfigError(key, value, f"a mapping with keys {', '.join(allowed)}")
+    unknown = [k for k in value if k not in allowed]
+    if unknown:
+        raise ConfigError(f"{key}.{unknown[0]}", value[unknown[0]],
+                          f"a key of {key}: one of {', '.join(allowed)}")  # fmt: skip
+    missing = [k for k in required if k not in value]
+    if missing:
+        raise ConfigError(f"{key}.{missing[0]}", "<missing>", "a value: this key is required")
+    return value
+
+
+def _vector5(key: str, value: Any, limit: float, unit: str) -> FloatArray:
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and value == 0:
+        return np.zeros(5)
+    if not isinstance(value, (list, tuple)) or len(value) != 5:
+        raise ConfigError(
+            key, value, f"0 or a list of five numbers (Fx, Fy, Fz, Mx, My) in {unit}"
+        )
+    return np.array([_number(f"{key}[{i}]", v, -limit, limit, unit) for i, v in enumerate(value)])
+
+
+def _geometry(value: Any) -> PegHole:
+    fields = ("hole_radius", "peg_radius", "hole_depth", "base_thickness", "friction",
+              "stiffness", "acting_point", "peg_length", "n_angles")  # fmt: skip
+    g = _mapping("geometry", value, fields, fields[:5])
+    kw: dict[str, Any] = {}
+    for name in ("hole_radius", "peg_radius", "hole_depth", "peg_length"):
+        if name in g:
+            kw[name] = _number(f"geometry.{name}", g[name], 0, _LENGTH_MAX, "m", low_open=True)
+    kw["base_thickness"] = _number(
+        "geometry.base_thickness", g["base_thickness"], 0, _LENGTH_MAX, "m"
+    )
+    kw["friction"] = _number("geometry.friction", g["friction"], 0, 1, "(dimensionless, < 1)")
+    if "stiffness" in g:
+        kw["stiffness"] = _number("geometry.stiffness", g["stiffness"], *_STIFFNESS_RANGE, "Pa")
+    else:
+        kw["stiffness"] = lame_stiffness(
+            kw["hole_radius"], DEFAULT_OUTER_FACTOR * kw["hole_radius"]
+        )
+    for name in ("acting_point", "n_angles"):
+        if name in g:
+            kw[name] = g[name]
+    fit = abs(kw["hole_radius"] - kw["peg_radius"]) / kw["hole_radius"]
+    if fit > _FIT_MAX:
+        raise ConfigError(
+            "geometry.peg_radius", g["peg_radius"],
+            f"within {_FIT_MAX:.0%} of hole_radius={g['hole_radius']} m: a clearance or "
+            "interference fit differs by microns (are both in m?)",
+        )  # fmt: skip
+    try:
+        return PegHole(**kw)
+    except ConfigError as exc:
+        raise ConfigError(f"geometry.{exc.field}", exc.value, exc.allowed) from None
+
+
+def _laws(value: Any) -> tuple[str, ...]:
+    names = value if isinstance(value, list) else [value]
+    for name in names:
+        if name not in LAWS:
+            raise ConfigError(
+                "controller.type", value, f"one of {', '.join(LAWS)} or a list of them"
+            )
+    if not names or len(set(names)) != len(names):
+        raise ConfigError("controller.type", value, "one law, or a list of distinct laws")
+    return tuple(names)
+
+
+def validate(scenario: Any, name: str = "scenario") -> Scenario:
+    """Check a scenario mapping and fill in the defaults; raises ConfigError naming the key."""
+    top = ("geometry", "controller", "initial", "insertion", "sensor", "robot", "tolerance",
+           "rate_hz", "duration", "seed")  # fmt: skip
+    s = _mapping("scenario", scenario, top, ("geometry", "initial"))
+    geometry = _geometry(s["geometry"])
+
+    c = _mapping("controller", s.get("controller", {}), ("type", "params"))
+    laws = _laws(c.get("type", "fbcc"))
+    params_in = c.get("params", {})
+    if not isinstance(params_in, Mapping):
+        raise ConfigError("controller.params", params_in, "a mapping of Table I gains")
+    params = ComplianceParams.from_mapping(params_in, "controller.params")
+
+    i = _mapping("initial", s["initial"], ("dx", "dy", "theta_x", "theta_y"),
+                 ("dx", "dy", "theta_x", "theta_y"))  # fmt: skip
+    initial = np.array([
+        _number("initial.dx", i["dx"], -_OFFSET_MAX, _OFFSET_MAX, "m"),
+        _number("initial.dy", i["dy"], -_OFFSET_MAX, _OFFSET_MAX, "m"),
+        0.0,
+        _number("initial.theta_x", i["theta_x"], -_TILT_MAX, _TILT_MAX, "rad"),
+        _number("initial.theta_y", i["theta_y"], -_TILT_MAX, _TILT_MAX, "rad"),
+    ])  # fmt: skip
+
+    ins = _mapping("insertion", s.get("insertion", {}), ("depth", "speed"))
+    depth = _number(
+        "insertion.depth", ins.get("depth", geometry.hole_depth), 0, geometry.hole_depth,
+        "m (at most geometry.hole_depth)", low_open=True,
+    )  # fmt: skip
+    speed = _number("insertion.speed", ins.get("speed", 5e-3), 0, _SPEED_MAX, "m/s", low_open=True)
+    insertion = Insertion(depth, speed)
+
+    sen = _mapping("sensor", s.get("sensor", {}), ("noise", "bias"))
+    noise = _vector5("sensor.noise", sen.get("noise", list(DEFAULT_NOISE)), 100, "N, N·m")
+    if np.any(noise < 0):
+        raise ConfigError("sensor.noise", sen["noise"], "standard deviations >= 0")
+    bias = _vector5("sensor.bias", sen.get("bias", 0), 1000, "N, N·m")
+
+    rob = _mapping("robot", s.get("robot", {}), ("lag",))
+    lag = _number("robot.lag", rob.get("lag", DEFAULT_LAG), 0, 1, "s")
+
+    tol = _mapping("tolerance", s.get("tolerance", {}), tuple(DEFAULT_TOLERANCE))
+    tolerance = Tolerance(
+        _number(
+            "tolerance.offset",
+            tol.get("offset", Tolerance.offset),
+            0,
+            _OFFSET_MAX,
+            "m",
+            low_open=True,
+        ),
+        _number(
+            "tolerance.tilt", tol.get("tilt", Tolerance.tilt), 0, _TILT_MAX, "rad", low_open=True
+        ),
+        _number(
+            "tolerance.depth", tol.get("depth", Tolerance.depth), 0, depth, "m", low_open=True
+        ),
+    )
+
+    rate = _number("rate_hz", s.get("rate_hz", 1000), 10, 1e5, "Hz")
+    duration = _number(
+        "duration", s.get("duration", depth / speed + 2.0), 0, 3600, "s", low_open=True
+    )
+    seed = s.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ConfigError("seed", seed, "an integer >= 0")
+    return Scenario(geometry, laws, params, initial, insertion, noise, bias, lag, tolerance,
+                    rate, duration, seed, name)  # fmt: skip
+
+
+def load(path: str | Path) -> Scenario:
+    """Read and validate a scenario YAML file."""
+    p = Path(path)
+    try:
+        text = p.read_text()
+    except OSError as exc:
+        raise ConfigError(
+            "scenario file", str(p), f"a readable YAML file ({exc.strerror})"
+        ) from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ConfigError("scenario file", str(p), f"valid YAML ({exc})") from None
+    return validate(data, p.stem)

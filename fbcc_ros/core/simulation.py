@@ -1,0 +1,276 @@
+"""Closed-loop simulation of an assembly (the paper's Section IV) and its metrics.
+
+The plant, per trial:
+
+* **the hole** sits at an unknown deviation ``x_dev = (dx, dy, 0, theta_x, theta_y)`` from where
+  the robot believes it is. The true features are ``x = p + x_dev`` with ``p`` the robot's pose
+  as features of the believed hole (exact for offsets, first order in the tilts);
+* **the robot** is position controlled: ``p`` follows the command x_c with a first-order lag,
+  ``p(k+1) = p(k) + (1 - exp(-dt/tau)) (x_c(k) - p(k))``;
+* **the contact** is the analytic model of eq. (5)-(13) (:mod:`fbcc_ros.core.contact`), with the
+  true radii; the peg touches nothing while its depth is <= 0;
+* **the sensor** adds its bias and white Gaussian noise; the dynamic compensation is taken as
+  ideal apart from that bias (issue "dynamic compensation" models the rest).
+
+The controller sees the measured wrench and the depth of ``p`` (its feature solution), and knows
+only the nominal geometry. Each step: contact → sensor → control law → robot.
+
+Metrics (summary keys of DESIGN §4), per trial:
+
+``success``
+    the trial is *assembled* at the end and the force limit was never exceeded. Assembled: the
+    final depth is reached (within ``tolerance.depth``) and, in each plane, the lateral features
+    are within ``tolerance.offset`` / ``tolerance.tilt`` *or* the lateral force of that plane
+    (|Fx| in XOZ, |Fy| in YOZ) is below ``tolerance.force``. A force controller cannot sense
+    features inside P0 (Remark 2 of II.D): with a clearance wider than the tolerances, a peg
+    that rests in the hole without pressing on the wall is assembled, wherever it rests.
+``insertion_time`` [s]
+    the time from which the trial stays assembled until the end; ``None`` when it is not
+    assembled at the end.
+``peak_fz`` [N]
+    the largest axial force Fz.
+``residual_force`` [N], ``residual_moment`` [N·m]
+    the mean of |(Fx, Fy)| and of |(Mx, My)| over the last 10 % of the run.
+``tilt_overshoot`` [rad]
+    the largest excursion of a tilt past zero, opposite to its initial sign (for an initial tilt
+    of zero, the largest |theta|), over both planes.
+``tilt_misadjustment`` [rad] (extra)
+    how far a tilt grew beyond its initial value in its initial direction (Fig. 9a's -6°).
+``final_features``
+    (dx, dy, l, theta_x, theta_y) at the end, true values.
+``state_sequence``
+    the contact states (Fig. 4) the features went through, ``"XOZ/YOZ"``, repeats collapsed.
+
+All quantities are the true ones (from the model, before the sensor), not the measured ones.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from fbcc_ros.core.contact import FEATURE_NAMES, ContactBatch, FloatArray, PegHole
+from fbcc_ros.core.control import make_law
+from fbcc_ros.core.errors import ConfigError, FbccError
+from fbcc_ros.core.scenario import Scenario, validate
+from fbcc_ros.core.segmentation import feature_state
+
+#: Fraction of the run at its end over which the residual responses are averaged.
+RESIDUAL_WINDOW = 0.1
+#: Steps processed together by the metric accumulators (bounds memory for large batches).
+_CHUNK = 256
+
+
+@dataclasses.dataclass
+class Trajectory:
+    """Recorded signals of a run: time (T,), and (T, N, 5) arrays of true features, true
+    responses, measured responses and commands; ``phase`` (T, N) codes of control.PHASES."""
+
+    t: FloatArray
+    features: FloatArray
+    response: FloatArray
+    measured: FloatArray
+    command: FloatArray
+
+    def trial(self, i: int) -> Trajectory:
+        """The signals of trial i only, keeping the (T, 1, 5) shapes."""
+        s = slice(i, i + 1)
+        return Trajectory(self.t, self.features[:, s], self.response[:, s],
+                          self.measured[:, s], self.command[:, s])  # fmt: skip
+
+
+@dataclasses.dataclass
+class Outcome:
+    """Metrics per trial, each an array over the N trials (see the module doc)."""
+
+    success: np.ndarray
+    insertion_time: FloatArray  # NaN when not assembled at the end
+    peak_fz: FloatArray
+    peak_force: FloatArray
+    residual_force: FloatArray
+    residual_moment: FloatArray
+    tilt_overshoot: FloatArray
+    tilt_misadjustment: FloatArray
+    final_features: FloatArray
+    force_limited: np.ndarray
+
+    def summary(self, i: int = 0) -> dict[str, Any]:
+        """The DESIGN §4 summary of trial i (without the state sequence), JSON-ready."""
+        t_ins = float(self.insertion_time[i])
+        return {
+            "success": bool(self.success[i]),
+            "insertion_time": None if math.isnan(t_ins) else t_ins,
+            "peak_fz": float(self.peak_fz[i]),
+            "residual_force": float(self.residual_force[i]),
+            "residual_moment": float(self.residual_moment[i]),
+            "tilt_overshoot": float(self.tilt_overshoot[i]),
+            "tilt_misadjustment": float(self.tilt_misadjustment[i]),
+            "final_features": dict(
+                zip(FEATURE_NAMES, self.final_features[i].tolist(), strict=True)
+            ),
+            "force_limited": bool(self.force_limited[i]),
+            "peak_force": float(self.peak_force[i]),
+        }
+
+
+class _Metrics:
+    """Accumulates the metrics chunk by chunk over a batch of N trials."""
+
+    def __init__(self, sc: Scenario, initial: FloatArray) -> None:
+        n = len(initial)
+        self.sc = sc
+        self.theta0 = initial[:, 3:5]
+        self.peak_fz = np.zeros(n)
+        self.peak_force = np.zeros(n)
+        self.theta_max = initial[:, 3:5].copy()
+        self.theta_min = initial[:, 3:5].copy()
+        self.last_outside = np.zeros(n)  # time of the last step not assembled
+        self.resid_from = sc.steps - max(1, round(RESIDUAL_WINDOW * sc.steps))
+        self.resid_f = np.zeros(n)
+        self.resid_m = np.zeros(n)
+        self.final = initial.copy()
+
+    def add(self, k0: int, t: FloatArray, x: FloatArray, w: FloatArray) -> None:
+        """Steps k0 .. k0 + len(t) - 1: times (K,), true features and responses (K, N, 5)."""
+        tol = self.sc.tolerance
+        self.peak_fz = np.maximum(self.peak_fz, w[..., 2].max(axis=0))
+        self.peak_force = np.maximum(self.peak_force, np.linalg.norm(w[..., :3], axis=-1).max(0))
+        self.theta_max = np.maximum(self.theta_max, x[..., 3:5].max(axis=0))
+        self.theta_min = np.minimum(self.theta_min, x[..., 3:5].min(axis=0))
+        # per plane: XOZ holds (dx, theta_y, Fx), YOZ (dy, theta_x, Fy)
+        within = (np.abs(x[..., :2]) <= tol.offset) & (np.abs(x[..., [4, 3]]) <= tol.tilt)
+        resting = np.abs(w[..., :2]) <= tol.force
+        depth_ok = x[..., 2] >= self.sc.insertion.depth - tol.depth
+        assembled = depth_ok & (within | resting).all(axis=-1)
+        outside_t = np.where(assembled, -np.inf, t[:, None] + 1.0 / self.sc.rate_hz)
+        self.last_outside = np.maximum(self.last_outside, outside_t.max(axis=0))
+        tail = slice(max(0, self.resid_from - k0), None)
+        self.resid_f += np.linalg.norm(w[tail, :, :2], axis=-1).sum(axis=0)
+        self.resid_m += np.linalg.norm(w[tail, :, 3:5], axis=-1).sum(axis=0)
+        self.final = x[-1].copy()
+        self.assembled_at_end = assembled[-1]
+
+    def outcome(self, force_limited: np.ndarray) -> Outcome:
+        n_tail = self.sc.steps - self.resid_from
+        sign0 = np.sign(self.theta0)
+        # past zero, opposite to the initial sign; any excursion when the initial tilt is zero
+        over = np.where(sign0 > 0, -self.theta_min, np.where(sign0 < 0, self.theta_max, 0.0))
+        over = np.where(sign0 == 0, np.maximum(self.theta_max, -self.theta_min), over)
+        grown = np.where(sign0 > 0, self.theta_max, -self.theta_min) - np.abs(self.theta0)
+        grown = np.where(sign0 == 0, 0.0, grown)
+        success = self.assembled_at_end & ~force_limited
+        return Outcome(
+            success=success,
+            insertion_time=np.where(self.assembled_at_end, self.last_outside, np.nan),
+            peak_fz=self.peak_fz,
+            peak_force=self.peak_force,
+            residual_force=self.resid_f / n_tail,
+            residual_moment=self.resid_m / n_tail,
+            tilt_overshoot=np.maximum(over, 0.0).max(axis=1),
+            tilt_misadjustment=np.maximum(grown, 0.0).max(axis=1),
+            final_features=self.final,
+            force_limited=force_limited,
+        )
+
+
+def simulate(
+    sc: Scenario,
+    law_name: str,
+    *,
+    initial: FloatArray | None = None,
+    geometries: Sequence[PegHole] | None = None,
+    record: bool = True,
+    seed: int | None = None,
+    progress: Callable[[float], None] | None = None,
+) -> tuple[Outcome, Trajectory | None]:
+    """Run N trials of the closed loop in lockstep.
+
+    Args:
+        sc: The scenario (nominal geometry for the controller, gains, sensor, robot, timing).
+        law_name: ``fbcc``, ``admittance`` or ``none``.
+        initial: Deviations of the hole, (N, 5); default the scenario's, N = 1.
+        geometries: True geometry per trial (N of them); default the nominal one.
+        record: Keep the full signals (memory T × N × 20 floats).
+        seed: Seed of the sensor noise; default the scenario's.
+        progress: Called with the fraction done after each chunk of steps.
+    """
+    dev = np.atleast_2d(sc.initial if initial is None else np.asarray(initial, dtype=float))
+    n = len(dev)
+    contact = ContactBatch.of(list(geometries) if geometries is not None else [sc.geometry])
+    if len(contact) not in (1, n):
+        raise ConfigError("geometries", f"{len(contact)} pairs", f"1 or {n}, one per trial")
+    rng = np.random.default_rng(sc.seed if seed is None else seed)
+    law = make_law(law_name, sc.geometry, sc.params, sc.insertion)
+    dt = 1.0 / sc.rate_hz
+    alpha = 1.0 - math.exp(-dt / sc.lag) if sc.lag > 0 else 1.0  # first-order lag of the robot
+
+    pose = np.zeros((n, 5))  # the robot's pose as features of the believed hole
+    law.reset(pose)
+    metrics = _Metrics(sc, dev)
+    chunks: list[tuple[np.ndarray, ...]] = []
+    buf_x, buf_w, buf_m, buf_c = (np.empty((_CHUNK, n, 5)) for _ in range(4))
+    steps = sc.steps
+    for k0 in range(0, steps, _CHUNK):
+        kk = min(_CHUNK, steps - k0)
+        for j in range(kk):
+            x = pose + dev  # true features
+            x_touch = x.copy()
+            np.maximum(x_touch[:, 2], 0.0, out=x_touch[:, 2])  # above the hole: no contact
+            w = contact.response(x_touch)
+            measured = w + sc.bias + sc.noise * rng.standard_normal((n, 5))
+            command = law.step(measured, pose[:, 2], dt)
+            pose += alpha * (command - pose)
+            buf_x[j], buf_w[j], buf_m[j], buf_c[j] = x, w, measured, command
+        t = (k0 + np.arange(kk)) * dt
+        metrics.add(k0, np.asarray(t, dtype=float), buf_x[:kk], buf_w[:kk])
+        if record:
+            chunks.append((t, buf_x[:kk].copy(), buf_w[:kk].copy(), buf_m[:kk].copy(),
+                           buf_c[:kk].copy()))  # fmt: skip
+        if progress is not None:
+            progress((k0 + kk) / steps)
+    outcome = metrics.outcome(law.stopped.copy())
+    if not record:
+        return outcome, None
+    traj = Trajectory(*(np.concatenate([c[i] for c in chunks]) for i in range(5)))
+    return outcome, traj
+
+
+def state_sequence(traj: Trajectory, peghole: PegHole, trial: int = 0) -> list[dict[str, Any]]:
+    """The contact states of Fig. 4 along a recorded trial: ``[{"t", "state"}]``, where state is
+    ``"XOZ/YOZ"`` and each entry starts a run of a new state."""
+    x = traj.features[:, trial].copy()
+    np.maximum(x[:, 2], 0.0, out=x[:, 2])
+    xoz, yoz = feature_state(x, peghole)
+    labels = np.char.add(np.char.add(np.asarray(xoz, dtype=str), "/"), np.asarray(yoz, dtype=str))
+    change = np.flatnonzero(np.r_[True, labels[1:] != labels[:-1]])
+    return [{"t": float(traj.t[i]), "state": str(labels[i])} for i in change]
+
+
+@dataclasses.dataclass
+class SimResult:
+    """One run of one law: the summary of DESIGN §4 and the recorded trajectory."""
+
+    scenario: Scenario
+    law: str
+    summary: dict[str, Any]
+    trajectory: Trajectory
+
+
+def run_scenario(sc: Scenario, law: str | None = None) -> SimResult:
+    """Run one law of a validated scenario (its only law by default)."""
+    law = law or sc.law
+    outcome, traj = simulate(sc, law)
+    if traj is None:  # not reached: record=True
+        raise FbccError("simulate returned no trajectory")
+    summary = outcome.summary(0)
+    summary["state_sequence"] = state_sequence(traj, sc.geometry)
+    return SimResult(sc, law, summary, traj)
+
+
+def run(scenario: dict[str, Any]) -> SimResult:
+    """Validate a scenario mapping (DESIGN §4) with one law and simulate it."""
+    return run_scenario(validate(scenario))
