@@ -14,6 +14,7 @@ setup(
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+        (f"share/{PACKAGE}/config/scenarios", glob("config/scenarios/*.yaml")),
     ],
     install_requires=["setuptools"],
     zip_safe=True,
@@ -26,6 +27,8 @@ setup(
             "fbcc-bench = fbcc_ros.cli.bench:main",
             "fbcc-maps = fbcc_ros.cli.maps:main",
             "fbcc-mapping-study = fbcc_ros.cli.mapping_study:main",
+            "fbcc-sim = fbcc_ros.cli.sim:main",
+            "fbcc-montecarlo = fbcc_ros.cli.montecarlo:main",
         ],
     },
 )

@@ -5,7 +5,7 @@ A scenario is a mapping (usually YAML) with these keys; every key but ``geometry
 
 =============  ========================================================================
 geometry       the PegHole fields [m, Pa]: hole_radius, peg_radius, hole_depth,
-               base_thickness, friction, stiffness (default: Lamé, ABS, outer radius 2R),
+               base_thickness, friction, stiffness (k of eq. 8; see docs/reproduction.md),
                acting_point (hole_bottom), peg_length (0.05), n_angles (48)
 controller     type: fbcc | admittance | none, or a list of them to compare (default fbcc);
                params: label (Table I, default 3) and any ComplianceParams field
@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -36,7 +37,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from fbcc_ros.core.contact import FloatArray, PegHole, lame_stiffness
+from fbcc_ros.core.contact import FloatArray, PegHole
 from fbcc_ros.core.control import LAWS, ComplianceParams, Insertion
 from fbcc_ros.core.errors import ConfigError
 
@@ -51,7 +52,6 @@ _FIT_MAX = 0.05  # |R - r| / R: a fit differs by microns, not by a twentieth of 
 DEFAULT_NOISE = (0.05, 0.05, 0.05, 0.002, 0.002)  # [N, N·m] a 6-axis F/T sensor's noise
 DEFAULT_LAG = 0.005  # [s]
 DEFAULT_TOLERANCE = {"offset": 2e-5, "tilt": 0.0035, "depth": 1e-5, "force": 1.0}
-DEFAULT_OUTER_FACTOR = 2.0  # b = 2R for the default stiffness
 
 
 @dataclasses.dataclass(frozen=True)
@@ -103,7 +103,16 @@ def _number(
     key: str, value: Any, low: float, high: float, unit: str, *, low_open: bool = False
 ) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ConfigError(key, value, f"a number in {unit}")
+        hint = ""
+        if isinstance(value, str):
+            try:
+                float(value)
+                hint = (
+                    " (it is text: quoted, or read by a YAML 1.1 parser that takes 5e-5 as text)"
+                )
+            except ValueError:
+                pass
+        raise ConfigError(key, value, f"a number in {unit}{hint}")
     v = float(value)
     ok = math.isfinite(v) and (v > low if low_open else v >= low) and v <= high
     if not ok:
@@ -140,7 +149,7 @@ def _vector5(key: str, value: Any, limit: float, unit: str) -> FloatArray:
 def _geometry(value: Any) -> PegHole:
     fields = ("hole_radius", "peg_radius", "hole_depth", "base_thickness", "friction",
               "stiffness", "acting_point", "peg_length", "n_angles")  # fmt: skip
-    g = _mapping("geometry", value, fields, fields[:5])
+    g = _mapping("geometry", value, fields, fields[:6])
     kw: dict[str, Any] = {}
     for name in ("hole_radius", "peg_radius", "hole_depth", "peg_length"):
         if name in g:
@@ -149,12 +158,7 @@ def _geometry(value: Any) -> PegHole:
         "geometry.base_thickness", g["base_thickness"], 0, _LENGTH_MAX, "m"
     )
     kw["friction"] = _number("geometry.friction", g["friction"], 0, 1, "(dimensionless, < 1)")
-    if "stiffness" in g:
-        kw["stiffness"] = _number("geometry.stiffness", g["stiffness"], *_STIFFNESS_RANGE, "Pa")
-    else:
-        kw["stiffness"] = lame_stiffness(
-            kw["hole_radius"], DEFAULT_OUTER_FACTOR * kw["hole_radius"]
-        )
+    kw["stiffness"] = _number("geometry.stiffness", g["stiffness"], *_STIFFNESS_RANGE, "Pa")
     for name in ("acting_point", "n_angles"):
         if name in g:
             kw[name] = g[name]
@@ -253,6 +257,18 @@ def validate(scenario: Any, name: str = "scenario") -> Scenario:
                     rate, duration, seed, name)  # fmt: skip
 
 
+class _Loader(yaml.SafeLoader):
+    """SafeLoader that also reads ``5e-5`` and ``1e8`` as floats (YAML 1.2; PyYAML follows
+    YAML 1.1, which needs a dot and a signed exponent, and would hand us the text "5e-05")."""
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
+
+
 def load(path: str | Path) -> Scenario:
     """Read and validate a scenario YAML file."""
     p = Path(path)
@@ -263,7 +279,7 @@ def load(path: str | Path) -> Scenario:
             "scenario file", str(p), f"a readable YAML file ({exc.strerror})"
         ) from None
     try:
-        data = yaml.safe_load(text)
+        data = yaml.load(text, Loader=_Loader)
     except yaml.YAMLError as exc:
         raise ConfigError("scenario file", str(p), f"valid YAML ({exc})") from None
     return validate(data, p.stem)

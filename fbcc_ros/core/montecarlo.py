@@ -1,0 +1,134 @@
+"""Robustness at scale: many assemblies with random deviations and manufacturing tolerances.
+
+Each trial draws
+
+* the hole's unknown deviation: dx, dy uniform in ±max_offset, theta_x, theta_y uniform in
+  ±max_tilt (defaults ±0.1 mm, ±2°, as the paper's experiment and Section IV.C);
+* the true radii: each of R and r moves uniformly within ± half the range of the diameters
+  measured in one group of Table II, the group drawn per trial (:func:`mapping_study.perturbed`
+  with friction and stiffness kept nominal).
+
+Every law sees the same trials (same seed). The trials are split in batches that run in lockstep
+(:func:`simulation.simulate`) on a pool of processes.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import dataclasses
+import math
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from fbcc_ros.core.contact import FloatArray, PegHole
+from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.mapping_study import perturbed
+from fbcc_ros.core.scenario import Scenario
+from fbcc_ros.core.simulation import Outcome, simulate
+
+DEFAULT_MAX_OFFSET = 1e-4  # [m]
+DEFAULT_MAX_TILT = math.radians(2.0)  # [rad]
+
+
+@dataclasses.dataclass(frozen=True)
+class Trials:
+    """The random part of N trials: deviations (N, 5) and true geometries."""
+
+    initial: FloatArray
+    geometries: tuple[PegHole, ...]
+
+    def __len__(self) -> int:
+        return len(self.initial)
+
+    def part(self, s: slice) -> Trials:
+        return Trials(self.initial[s], self.geometries[s])
+
+
+def draw_trials(
+    nominal: PegHole,
+    n: int,
+    seed: int,
+    max_offset: float = DEFAULT_MAX_OFFSET,
+    max_tilt: float = DEFAULT_MAX_TILT,
+) -> Trials:
+    """N random trials around the nominal pair (see the module doc)."""
+    if not (isinstance(n, int) and n >= 1):
+        raise ConfigError("trials", n, "an integer >= 1")
+    rng = np.random.default_rng(seed)
+    initial = np.zeros((n, 5))
+    initial[:, :2] = rng.uniform(-max_offset, max_offset, (n, 2))
+    initial[:, 3:] = rng.uniform(-max_tilt, max_tilt, (n, 2))
+    geometries = tuple(
+        perturbed(nominal, rng, friction_spread=0.0, stiffness_octaves=0.0) for _ in range(n)
+    )
+    return Trials(initial, geometries)
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
+    """95 % Wilson score interval of a success rate (honest at 0 % and 100 %, unlike Wald)."""
+    if n <= 0:
+        return math.nan, math.nan
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def _run_part(sc: Scenario, law: str, trials: Trials, seed: int) -> Outcome:
+    outcome, _ = simulate(
+        sc, law, initial=trials.initial, geometries=trials.geometries, record=False, seed=seed
+    )
+    return outcome
+
+
+def concat(outcomes: Sequence[Outcome]) -> Outcome:
+    """The outcomes of consecutive batches as one."""
+    fields = [f.name for f in dataclasses.fields(Outcome)]
+    return Outcome(**{f: np.concatenate([getattr(o, f) for o in outcomes]) for f in fields})
+
+
+def run_montecarlo(
+    sc: Scenario,
+    laws: Sequence[str],
+    trials: Trials,
+    *,
+    workers: int = 2,
+    batch: int = 128,
+    progress: Callable[[int, int], None] | None = None,
+) -> dict[str, Outcome]:
+    """Run every law on the same trials; returns the outcomes per law, in trial order.
+
+    Args:
+        sc: Scenario with the nominal geometry, gains, sensor, robot and timing.
+        laws: Names of the laws to run.
+        trials: From :func:`draw_trials`.
+        workers: Processes; 1 runs in this process (no pool).
+        batch: Trials per task (the lockstep batch size).
+        progress: Called with (tasks done, tasks total) as tasks finish.
+    """
+    if not (isinstance(workers, int) and workers >= 1):
+        raise ConfigError("workers", workers, "an integer >= 1")
+    parts = [slice(i, min(i + batch, len(trials))) for i in range(0, len(trials), batch)]
+    # one noise seed per batch, derived from the scenario's seed: reproducible at any worker count
+    tasks = [(law, j, part) for law in laws for j, part in enumerate(parts)]
+    results: dict[tuple[str, int], Outcome] = {}
+    done = 0
+    if workers == 1:
+        for law, j, part in tasks:
+            results[law, j] = _run_part(sc, law, trials.part(part), sc.seed + j)
+            done += 1
+            if progress:
+                progress(done, len(tasks))
+    else:
+        with concurrent.futures.ProcessPoolExecutor(max_workers=workers) as pool:
+            futures = {
+                pool.submit(_run_part, sc, law, trials.part(part), sc.seed + j): (law, j)
+                for law, j, part in tasks
+            }
+            for fut in concurrent.futures.as_completed(futures):
+                results[futures[fut]] = fut.result()
+                done += 1
+                if progress:
+                    progress(done, len(tasks))
+    return {law: concat([results[law, j] for j in range(len(parts))]) for law in laws}
