@@ -17,7 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from fbcc_ros.core.segmentation import normalised_coordinates, tilt_boundary_angle
+from fbcc_ros.core.segmentation import tilt_boundary_angle
 from fbcc_ros.core.simulation import SimResult
 
 _MM, _DEG = 1e3, 180.0 / np.pi
