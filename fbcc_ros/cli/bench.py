@@ -14,11 +14,18 @@ import time
 
 import numpy as np
 
-from fbcc_ros.cli.common import paper_pair
+from fbcc_ros.cli.common import paper_pair, paper_scenario
+from fbcc_ros.core.montecarlo import draw_trials, run_montecarlo
+from fbcc_ros.core.scenario import validate
+from fbcc_ros.core.simulation import simulate
 
 # Targets of issue 2: one response <= 100 µs; batched >= 50 000 responses/s.
 SINGLE_TARGET_US = 100.0
 BATCH_TARGET_PER_S = 50_000.0
+# Targets of issue 3: one assembly at 1 kHz >= 20x real time; 1000 trials <= 60 s on 2 cores.
+REALTIME_TARGET = 20.0
+MONTECARLO_TARGET_S = 60.0
+MONTECARLO_TRIALS = 1000
 
 
 def _random_features(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -59,6 +66,31 @@ def bench_batch(fit: str, n: int, rounds: int, rng: np.random.Generator) -> floa
     return n / best
 
 
+def bench_assembly(fit: str, rounds: int) -> float:
+    """Best-of-rounds real-time factor of one FBCC assembly at 1 kHz (simulated s / wall s)."""
+    sc = validate(paper_scenario(fit))
+    simulate(sc, "fbcc", record=True)  # warm (compiled kernel, caches)
+    best = math.inf
+    for _ in range(rounds):
+        t0 = time.perf_counter()
+        simulate(sc, "fbcc", record=True)
+        best = min(best, time.perf_counter() - t0)
+    return sc.duration / best
+
+
+def bench_montecarlo(fit: str, trials: int, workers: int) -> float:
+    """Wall time [s] of ``trials`` FBCC assemblies at 1 kHz on ``workers`` processes."""
+    sc = validate(paper_scenario(fit))
+    drawn = draw_trials(sc.geometry, trials, seed=0)
+    t0 = time.perf_counter()
+    run_montecarlo(sc, ["fbcc"], drawn, workers=workers)
+    return time.perf_counter() - t0
+
+
+def _line(figure: str, measured: str, target: str, ratio: float) -> None:
+    print(f"{figure:46s} {measured:>12s} {target:>12s} {ratio:7.2f}")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="fbcc-bench", description=__doc__.splitlines()[0])
     parser.add_argument("--short", action="store_true", help="few repetitions (CI smoke run)")
@@ -78,6 +110,17 @@ def main(argv: list[str] | None = None) -> int:
             f"{'contact response, batched [1/s] (' + fit + ')':46s} {rate:12.0f}"
             f" {'>= ' + format(BATCH_TARGET_PER_S, '.0f'):>12s} {rate / BATCH_TARGET_PER_S:7.2f}"
         )
+    rt = bench_assembly("interference", 1 if args.short else 5)
+    _line("one assembly at 1 kHz [x real time]", f"{rt:.1f}", f">= {REALTIME_TARGET:.0f}",
+          rt / REALTIME_TARGET)  # fmt: skip
+    trials = 100 if args.short else MONTECARLO_TRIALS
+    seconds = bench_montecarlo("interference", trials, workers=2)
+    projected = seconds * MONTECARLO_TRIALS / trials
+    label = f"{MONTECARLO_TRIALS} trials, 2 workers [s]"
+    if trials != MONTECARLO_TRIALS:
+        label += f" (from {trials})"
+    _line(label, f"{projected:.1f}", f"<= {MONTECARLO_TARGET_S:.0f}",
+          MONTECARLO_TARGET_S / projected)  # fmt: skip
     return 0
 
 

@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike
 
 from fbcc_ros.core.contact import FloatArray, PegHole, as_rows
 from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.segmentation import direction_matrix
+from fbcc_ros.core.segmentation import apply_direction
 
 #: Table I of the paper: (M_dp, K_dp, M_do, K_do, M_dl, K_dl) per label; D_d = sqrt(M_d K_d).
 TABLE_I: dict[int, tuple[float, float, float, float, float, float]] = {
@@ -296,9 +296,12 @@ class ComplianceLaw:
         """One control period: compensated response F_ext (5,) or (N, 5) in {H}, measured depth
         l [m] (scalar or (N,)), period dt [s]. Returns the command features x_c."""
         w, _ = as_rows(response, "response", "(Fx, Fy, Fz, Mx, My) in N, N·m")
-        depth_arr = np.broadcast_to(np.asarray(depth, dtype=float), (len(w),))
+        depth_arr = np.asarray(depth, dtype=float)
+        if depth_arr.shape != (len(w),):
+            depth_arr = np.full(len(w), depth_arr)
         # Algorithm 1 runs while |F_ext| <= F_ext_limit; past it the insertion stops for good.
-        self._stopped |= np.einsum("ij,ij->i", w[:, :3], w[:, :3]) > self.params.F_ext_limit**2
+        force2 = w[:, 0] * w[:, 0] + w[:, 1] * w[:, 1] + w[:, 2] * w[:, 2]
+        self._stopped |= force2 > self.params.F_ext_limit**2
         running = ~self._stopped
         x_d = self.filter.step(self.direction(w, depth_arr), dt)  # eq. (27)
         self._elapsed += np.where(running, dt, 0.0)
@@ -321,7 +324,7 @@ class FbccController(ComplianceLaw):
 
     def direction(self, response: FloatArray, depth: FloatArray) -> FloatArray:
         # A(l) F_ext, eq. (28) with gamma(l) of eq. (29)
-        return np.einsum("nij,nj->ni", direction_matrix(depth, self.nominal), response)
+        return apply_direction(response, depth, self.nominal)
 
     def _command_from(self, x_d: FloatArray, dt: float) -> FloatArray:
         # dead band (Algorithm 1): adjust only the features whose |x_d| exceeds x_d_limit

@@ -159,13 +159,28 @@ def direction_matrix(depth: ArrayLike, peghole: PegHole) -> FloatArray:
     of Mx. With right-hand moments (DESIGN §3) both Mx and the image of theta_x = 0 flip sign,
     hence ``+sin(gamma)`` here; the 90° rotation test of ``response_state`` pins it.
     """
-    gamma = tilt_boundary_angle(depth, peghole)
-    cg_r, sg = np.cos(gamma) / peghole.hole_radius, np.sin(gamma)
-    a = np.zeros((*np.shape(gamma), 5, 5))
+    sg, cg_r = _direction_terms(depth, peghole)
+    a = np.zeros((*np.shape(sg), 5, 5))
     a[..., 0, 0] = a[..., 1, 1] = a[..., 2, 2] = 1.0
     a[..., 3, 1], a[..., 3, 3] = sg, cg_r  # theta_x: sin(gamma) Fy + cos(gamma) Mx / R
     a[..., 4, 0], a[..., 4, 4] = -sg, cg_r  # theta_y: -sin(gamma) Fx + cos(gamma) My / R
     return a
+
+
+def apply_direction(response: FloatArray, depth: FloatArray, peghole: PegHole) -> FloatArray:
+    """``A(l) F`` for responses (N, 5) at depths (N,), without building A (the controller's
+    per-step path; equal to :func:`direction_matrix` times F, which a test pins)."""
+    sg, cg_r = _direction_terms(depth, peghole)
+    u = response.copy()
+    u[:, 3] = sg * response[:, 1] + cg_r * response[:, 3]
+    u[:, 4] = -sg * response[:, 0] + cg_r * response[:, 4]
+    return u
+
+
+def _direction_terms(depth: ArrayLike, peghole: PegHole) -> tuple[FloatArray, FloatArray]:
+    """sin(gamma) and cos(gamma) / R of eq. (28)-(29)."""
+    gamma = tilt_boundary_angle(depth, peghole)
+    return np.sin(gamma), np.cos(gamma) / peghole.hole_radius
 
 
 def normalised_coordinates(
