@@ -12,7 +12,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 VENV_BIN = Path(sys.executable).parent
-EXECUTABLES = ("fbcc-bench", "fbcc-maps", "fbcc-mapping-study")
+EXECUTABLES = ("fbcc-bench", "fbcc-maps", "fbcc-mapping-study", "fbcc-sim", "fbcc-montecarlo")
 
 
 def test_package_xml_is_accepted_by_catkin_pkg() -> None:
@@ -58,6 +58,9 @@ def test_colcon_installs_what_ros2_run_looks_up(colcon_install: Path) -> None:
     os.environ["AMENT_PREFIX_PATH"] = str(colcon_install / "fbcc_ros")
     prefix = Path(get_package_prefix("fbcc_ros"))
     assert (prefix / "share" / "fbcc_ros" / "package.xml").exists()
+    scenarios = {p.name for p in (ROOT / "config" / "scenarios").glob("*.yaml")}
+    installed = {p.name for p in (prefix / "share/fbcc_ros/config/scenarios").glob("*.yaml")}
+    assert scenarios and installed == scenarios
     for exe in EXECUTABLES:
         path = prefix / "lib" / "fbcc_ros" / exe
         assert path.exists() and os.access(path, os.X_OK), exe

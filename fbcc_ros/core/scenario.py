@@ -107,9 +107,7 @@ def _number(
         if isinstance(value, str):
             try:
                 float(value)
-                hint = (
-                    " (it is text: quoted, or read by a YAML 1.1 parser that takes 5e-5 as text)"
-                )
+                hint = " (given as text: quoted, or a YAML 1.1 parser, which reads 5e-5 as text)"
             except ValueError:
                 pass
         raise ConfigError(key, value, f"a number in {unit}{hint}")
