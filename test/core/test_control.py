@@ -141,7 +141,7 @@ def test_fbcc_integrates_while_admittance_only_displaces(clearance: PegHole) -> 
 
 
 def test_dead_band_holds_small_adjustments(clearance: PegHole) -> None:
-    params = ComplianceParams.table_i(3, x_d_limit_p=1e-4)  # 0.1 mm/s
+    params = ComplianceParams.table_i(3, x_d_limit_p=1e-4, F_ext_limit=1e4)  # 0.1 mm/s
     law = FbccController(clearance, params)
     law.reset(np.zeros(5))
     small = _run(law, np.array([50.0, 0, 0, 0, 0]), 1.0)  # x_d -> 5e-5 m/s, inside the band

@@ -1,0 +1,73 @@
+"""fbcc-sim and fbcc-montecarlo as a user runs them: files written, bad input refused."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import pytest
+
+from fbcc_ros.cli import montecarlo, sim
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENARIOS = ROOT / "config" / "scenarios"
+
+
+def test_sim_compares_two_laws_on_one_figure(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert sim.main([str(SCENARIOS / "fig9_clearance.yaml"), "--out", str(tmp_path)]) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert set(summary) == {"fbcc", "admittance"}
+    assert summary["fbcc"]["success"] and not summary["admittance"]["success"]
+    with (tmp_path / "trajectory.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert {r["run"] for r in rows} == {"fbcc", "admittance"}
+    assert len(rows) == 2 * 4000 and float(rows[-1]["l"]) == pytest.approx(0.01, abs=1e-5)
+    for name in ("trajectories.png", "planes.png"):
+        assert (tmp_path / name).stat().st_size > 20_000
+    assert "fbcc" in capsys.readouterr().out
+
+
+def test_sim_single_run_writes_a_flat_summary(tmp_path: Path) -> None:
+    assert sim.main([str(SCENARIOS / "fig10_interference_3.yaml"), "--out", str(tmp_path),
+                     "--no-plots"]) == 0  # fmt: skip
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["success"] is True and summary["state_sequence"]
+
+
+def test_sim_refuses_a_bad_scenario_before_simulating(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bad = tmp_path / "bad.yaml"
+    text = (SCENARIOS / "fig9_clearance.yaml").read_text()
+    text = text.replace("hole_radius: 0.00505", "hole_radius: 5.05")
+    bad.write_text(text)
+    out = tmp_path / "out"
+    good = SCENARIOS / "fig9_interference.yaml"
+    assert sim.main([str(good), str(bad), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "geometry.hole_radius=5.05" in err and " m" in err
+    assert not (out / "summary.json").exists()
+
+
+def test_montecarlo_writes_rates_with_intervals(tmp_path: Path) -> None:
+    args = [str(SCENARIOS / "table1_interference_label3.yaml"), "--out", str(tmp_path),
+            "--trials", "6", "--workers", "1", "--laws", "fbcc", "admittance"]  # fmt: skip
+    assert montecarlo.main(args) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    for law in ("fbcc", "admittance"):
+        s = summary[law]
+        lo, hi = s["success_ci95"]
+        assert s["trials"] == 6 and lo <= s["success_rate"] <= hi
+    with (tmp_path / "trials.csv").open() as f:
+        assert len(list(csv.DictReader(f))) == 12
+    assert (tmp_path / "histograms.png").stat().st_size > 10_000
+
+
+def test_montecarlo_rejects_bad_counts(tmp_path: Path) -> None:
+    with pytest.raises(SystemExit) as exc:
+        montecarlo.main([str(SCENARIOS / "fig9_clearance.yaml"), "--out", str(tmp_path),
+                         "--trials", "0"])  # fmt: skip
+    assert exc.value.code == 2
