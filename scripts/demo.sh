@@ -1,8 +1,13 @@
 #!/usr/bin/env bash
-# Install everything, then run the main job: the hardware-free demo.
-# For now (issue 2): contact responses of the paper's peg-hole pairs and the state maps of
-# Fig. 5 and 6, written to out/demo/. Later issues turn this into the full assembly.
+# Install everything, then run the main job: the hardware-free assembly demo.
+# For now (issue 3): the paper's Fig. 9 comparison, FBCC against admittance, simulated in closed
+# loop for both fits, plus the state maps of Fig. 5 and 6; everything is written to out/demo/.
+# The ROS 2 bringup replaces the simulator here with the nodes issue.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/bootstrap.sh
-.venv/bin/python -m fbcc_ros.cli.maps --out "${1:-out/demo}"
+out="${1:-out/demo}"
+for fit in clearance interference; do
+    .venv/bin/python -m fbcc_ros.cli.sim "config/scenarios/fig9_${fit}.yaml" --out "$out/fig9_${fit}"
+done
+.venv/bin/python -m fbcc_ros.cli.maps --out "$out/maps"

@@ -110,3 +110,14 @@ def test_readme_commands_are_what_ci_runs() -> None:
     readme = (ROOT / "README.md").read_text()
     assert "bash scripts/demo.sh" in readme and "bash scripts/test.sh" in readme
     assert "bash scripts/test.sh" in (ROOT / ".ci" / "run").read_text()
+
+
+def test_readme_scenario_example_validates() -> None:
+    import yaml
+
+    from fbcc_ros.core.scenario import validate
+
+    readme = (ROOT / "README.md").read_text()
+    block = readme.split("```yaml\n", 1)[1].split("```", 1)[0]
+    sc = validate(yaml.safe_load(block))
+    assert sc.laws == ("fbcc", "admittance") and sc.geometry.fit == "clearance"
