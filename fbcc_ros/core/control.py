@@ -247,8 +247,6 @@ class ComplianceLaw:
     period; it returns the command features x_c.
     """
 
-    integrates: ClassVar[bool]
-
     def __init__(
         self,
         nominal: PegHole,
@@ -322,8 +320,6 @@ class ComplianceLaw:
 class FbccController(ComplianceLaw):
     """Feature-based compliance control (eq. 26-30, Algorithm 1)."""
 
-    integrates = True
-
     def direction(self, response: FloatArray, depth: FloatArray) -> FloatArray:
         # A(l) F_ext, eq. (28) with gamma(l) of eq. (29)
         return apply_direction(response, depth, self.nominal)
@@ -339,8 +335,6 @@ class FbccController(ComplianceLaw):
 class AdmittanceController(ComplianceLaw):
     """The baseline: the same filter on the raw wrench, no direction matrix, no integrator."""
 
-    integrates = False
-
     def direction(self, response: FloatArray, depth: FloatArray) -> FloatArray:
         # the raw wrench, A = I: each feature is driven by its own response (My drives theta_y)
         return response
@@ -353,8 +347,6 @@ class AdmittanceController(ComplianceLaw):
 class NoFeedback(ComplianceLaw):
     """Position control only: the reference ramp, the force ignored (the paper's "no force
     feedback" runs, Fig. 13). The force limit still stops it."""
-
-    integrates = False
 
     def direction(self, response: FloatArray, depth: FloatArray) -> FloatArray:
         return np.zeros_like(response)

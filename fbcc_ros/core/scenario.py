@@ -248,6 +248,8 @@ def validate(scenario: Any, name: str = "scenario") -> Scenario:
     duration = _number(
         "duration", s.get("duration", depth / speed + 2.0), 0, 3600, "s", low_open=True
     )
+    if duration * rate < 10:
+        raise ConfigError("duration", duration, f">= {10 / rate:g} s: at least 10 control periods")
     seed = s.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ConfigError("seed", seed, "an integer >= 0")

@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -68,19 +68,13 @@ _CHUNK = 256
 @dataclasses.dataclass
 class Trajectory:
     """Recorded signals of a run: time (T,), and (T, N, 5) arrays of true features, true
-    responses, measured responses and commands; ``phase`` (T, N) codes of control.PHASES."""
+    responses, measured responses and commands."""
 
     t: FloatArray
     features: FloatArray
     response: FloatArray
     measured: FloatArray
     command: FloatArray
-
-    def trial(self, i: int) -> Trajectory:
-        """The signals of trial i only, keeping the (T, 1, 5) shapes."""
-        s = slice(i, i + 1)
-        return Trajectory(self.t, self.features[:, s], self.response[:, s],
-                          self.measured[:, s], self.command[:, s])  # fmt: skip
 
 
 @dataclasses.dataclass
@@ -185,7 +179,6 @@ def simulate(
     geometries: Sequence[PegHole] | None = None,
     record: bool = True,
     seed: int | None = None,
-    progress: Callable[[float], None] | None = None,
 ) -> tuple[Outcome, Trajectory | None]:
     """Run N trials of the closed loop in lockstep.
 
@@ -196,7 +189,6 @@ def simulate(
         geometries: True geometry per trial (N of them); default the nominal one.
         record: Keep the full signals (memory T × N × 20 floats).
         seed: Seed of the sensor noise; default the scenario's.
-        progress: Called with the fraction done after each chunk of steps.
     """
     dev = np.atleast_2d(sc.initial if initial is None else np.asarray(initial, dtype=float))
     n = len(dev)
@@ -230,8 +222,6 @@ def simulate(
         if record:
             chunks.append((t, buf_x[:kk].copy(), buf_w[:kk].copy(), buf_m[:kk].copy(),
                            buf_c[:kk].copy()))  # fmt: skip
-        if progress is not None:
-            progress((k0 + kk) / steps)
     outcome = metrics.outcome(law.stopped.copy())
     if not record:
         return outcome, None

@@ -69,6 +69,7 @@ _DELETE = object()
         (("sensor", "noise"), [0.1, 0.1], "sensor.noise", "five"),
         (("rate_hz",), 1.0, "rate_hz", "Hz"),
         (("seed",), 1.5, "seed", "integer"),
+        (("duration",), 0.005, "duration", "control periods"),
         (("durration",), 3.0, "scenario.durration", "one of"),
     ],
 )
