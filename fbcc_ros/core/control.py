@@ -296,6 +296,8 @@ class ComplianceLaw:
         """One control period: compensated response F_ext (5,) or (N, 5) in {H}, measured depth
         l [m] (scalar or (N,)), period dt [s]. Returns the command features x_c."""
         w, _ = as_rows(response, "response", "(Fx, Fy, Fz, Mx, My) in N, N·m")
+        if len(w) != len(self._command):
+            raise InputError("response", f"{len(w)} rows", f"{len(self._command)} rows, as reset")
         depth_arr = np.asarray(depth, dtype=float)
         if depth_arr.shape != (len(w),):
             depth_arr = np.full(len(w), depth_arr)
@@ -311,7 +313,7 @@ class ComplianceLaw:
         )
         command = self._command_from(x_d, dt)
         self._command = np.where(running[:, None], command, self._command)
-        return self._command[0] if self._single else self._command
+        return (self._command[0] if self._single else self._command).copy()
 
     def _command_from(self, x_d: FloatArray, dt: float) -> FloatArray:
         raise NotImplementedError

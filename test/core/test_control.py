@@ -17,7 +17,7 @@ from fbcc_ros.core.control import (
     Insertion,
     make_law,
 )
-from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.segmentation import apply_direction, direction_matrix
 
 DT = 1e-3
@@ -188,3 +188,12 @@ def test_a_batch_steps_like_its_rows_one_by_one(clearance: PegHole, name: str) -
 def test_unknown_law_is_named() -> None:
     with pytest.raises(ConfigError, match=r"controller\.type='pid'"):
         make_law("pid", PegHole(5e-3, 4.99e-3, 0.01, 0.005, 0.3, 1e8))
+
+
+def test_a_response_batch_must_match_the_reset(clearance: PegHole) -> None:
+    law = FbccController(clearance)
+    law.reset(np.zeros((3, 5)))
+    with pytest.raises(InputError, match="3 rows"):
+        law.step(np.zeros((2, 5)), 0.0, DT)
+    with pytest.raises(InputError, match="finite"):
+        law.step(np.full((3, 5), np.nan), 0.0, DT)
