@@ -125,21 +125,18 @@ class ComplianceParams:
             raise ConfigError(f"{field}.{unknown[0]}", values[unknown[0]],
                               f"one of label, {', '.join(cls.NAMES)}")  # fmt: skip
         label = values.get("label", 3)
-        if isinstance(label, bool) or not isinstance(label, int):
+        if isinstance(label, bool) or label not in TABLE_I:
             raise ConfigError(
-                f"{field}.label", label, f"an integer label of Table I, one of {sorted(TABLE_I)}"
+                f"{field}.label", label, f"a Table I label, one of {sorted(TABLE_I)}"
             )
+        base = cls.table_i(label)
         changes = {k: v for k, v in values.items() if k != "label"}
         for suffix in ("p", "o", "l"):
             d, m, k = f"D_d{suffix}", f"M_d{suffix}", f"K_d{suffix}"
             if d not in changes and (m in changes or k in changes):
-                base = cls.table_i(label)
                 m_v, k_v = changes.get(m, getattr(base, m)), changes.get(k, getattr(base, k))
-                if (
-                    isinstance(m_v, (int, float))
-                    and isinstance(k_v, (int, float))
-                    and m_v * k_v > 0
-                ):
+                numbers = all(isinstance(v, (int, float)) for v in (m_v, k_v))
+                if numbers and m_v * k_v > 0:  # otherwise __post_init__ names the bad value
                     changes[d] = math.sqrt(m_v * k_v)
         try:
             return cls.table_i(label, **changes)

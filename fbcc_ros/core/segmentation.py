@@ -83,28 +83,10 @@ def _plane_feature_state(
 ) -> NDArray[np.object_]:
     labels = _labels(_banded_sign(offset, offset_tol), _banded_sign(tilt, tilt_tol))
     if ph.fit == "clearance":
-        free = free_in_clearance(offset, tilt, depth, ph.hole_radius, ph.peg_radius)
-        labels = np.where(free, "P0", labels)
+        # eq. (15): no contact while |d ± l sin(theta)/2 ± r cos(theta)| <= R for every sign
+        reach = np.abs(offset) + depth * np.abs(np.sin(tilt)) / 2 + ph.peg_radius * np.cos(tilt)
+        labels = np.where(reach <= ph.hole_radius, "P0", labels)
     return labels  # interference fit: P0 only at the point d = 0, theta = 0 (eq. 17)
-
-
-def free_in_clearance(
-    offset: ArrayLike,
-    tilt: ArrayLike,
-    depth: ArrayLike,
-    hole_radius: ArrayLike,
-    peg_radius: ArrayLike,
-) -> NDArray[np.bool_]:
-    """Whether the peg touches no wall in one plane: the P0 region of eq. (15).
-
-    No contact while ``|d ± l sin(theta)/2 ± r cos(theta)| <= R`` for every sign. Arguments
-    broadcast; an interference fit (r > R) is never free.
-    """
-    reach = (
-        np.abs(offset) + np.asarray(depth) * np.abs(np.sin(tilt)) / 2
-        + np.asarray(peg_radius) * np.cos(tilt)
-    )  # fmt: skip
-    return reach <= hole_radius  # type: ignore[no-any-return]
 
 
 def feature_state(

@@ -127,6 +127,7 @@ class _Metrics:
         self.resid_f = np.zeros(n)
         self.resid_m = np.zeros(n)
         self.final = initial.copy()
+        self.assembled_at_end = np.zeros(n, dtype=bool)
 
     def add(self, k0: int, t: FloatArray, x: FloatArray, w: FloatArray) -> None:
         """Steps k0 .. k0 + len(t) - 1: times (K,), true features and responses (K, N, 5)."""
@@ -152,8 +153,8 @@ class _Metrics:
         n_tail = self.sc.steps - self.resid_from
         sign0 = np.sign(self.theta0)
         # past zero, opposite to the initial sign; any excursion when the initial tilt is zero
-        over = np.where(sign0 > 0, -self.theta_min, np.where(sign0 < 0, self.theta_max, 0.0))
-        over = np.where(sign0 == 0, np.maximum(self.theta_max, -self.theta_min), over)
+        either = np.maximum(self.theta_max, -self.theta_min)
+        over = np.where(sign0 > 0, -self.theta_min, np.where(sign0 < 0, self.theta_max, either))
         grown = np.where(sign0 > 0, self.theta_max, -self.theta_min) - np.abs(self.theta0)
         grown = np.where(sign0 == 0, 0.0, grown)
         success = self.assembled_at_end & ~force_limited
