@@ -1,0 +1,161 @@
+"""The feature vector (paper eq. 1-3) and its conversion to and from the peg's pose in {H}.
+
+Frames (DESIGN §3):
+
+* {H}, the hole frame: origin at the centre of the hole's top face, z along the hole axis pointing
+  out of the hole.
+* {P}, the peg (tool) frame: origin at the centre of the peg's end face (the tip), z along the peg
+  axis pointing out of the robot's flange, i.e. the approach direction. Aligned and inserted, {P}
+  is {H} turned half a turn about x: ``R_HP = diag(1, -1, -1)``.
+
+The peg's upward axis (from the tip toward the flange) is ``a = -z_P``; with
+``a = (a_x, a_y, a_z)`` the projected tilts of eq. 3 (read with eq. 14, DESIGN §5) are
+
+    theta_y = atan2(a_x, a_z),   theta_x = atan2(-a_y, a_z),
+
+so ``theta_y > 0`` leans the peg's top toward +x and ``theta_x > 0`` toward -y, and the total tilt
+``theta`` has ``cos theta = a_z``.
+
+Depth and offsets follow the contact model's reading of eq. 5 exactly (``docs/contact-model.md``),
+so that the response ``PegHole.response(features)`` describes the physical peg at this pose:
+
+* the end face's lowest point lies at depth ``l cos theta`` below the top face; it is
+  ``r sin theta`` below the tip centre, so ``l = (depth_tip + r sin theta) / cos theta``;
+* ``(dx, dy)`` is where eq. 5 puts the slice centre ``O_p``: the axis point at ``l/2`` along the
+  axis from the tip, plus ``r sin²theta (1 - 1/cos theta)`` along the lean (a term of order
+  ``r theta⁴``, 7 nm at 2° for r = 5 mm, kept so the conversion is exact).
+
+Aligned (theta = 0) this is the plain reading of DESIGN §3: ``l`` is the depth of the tip and
+``(dx, dy)`` the axis offset at depth ``l/2``. Tilted, the literal reading "tip depth; axis offset
+at depth l/2" would differ by ``r sin theta`` in ``l`` (0.18 mm at 2°, r = 5 mm) and by about
+``r sin theta tan theta`` in ``dx, dy`` (6 µm) — a third of the 20 µm success tolerance, which is
+why the peg radius is part of the conversion.
+
+The features leave the peg's spin about its own axis free (five features, six pose coordinates).
+:func:`pose_from_features` takes the spin as an argument and :func:`spin_of` reads it back:
+the spin is the twist left after the minimal ("swing") rotation that tilts the aligned peg.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from fbcc_ros.core.errors import InputError
+
+FloatArray = NDArray[np.float64]
+
+#: Orientation of {P} in {H} when the peg is aligned with the hole, at zero spin.
+R_ALIGNED = np.diag([1.0, -1.0, -1.0])
+
+
+def _swing(axis: FloatArray) -> FloatArray:
+    """The minimal rotation taking z to the unit vector ``axis`` (Rodrigues, closed form).
+
+    .. math::
+        S = \\begin{pmatrix} 1 - a_x^2/(1+a_z) & -a_x a_y/(1+a_z) & a_x \\\\
+                             -a_x a_y/(1+a_z) & 1 - a_y^2/(1+a_z) & a_y \\\\
+                             -a_x & -a_y & a_z \\end{pmatrix}
+    """
+    ax, ay, az = axis
+    c = 1.0 / (1.0 + az)
+    return np.array(
+        [
+            [1.0 - ax * ax * c, -ax * ay * c, ax],
+            [-ax * ay * c, 1.0 - ay * ay * c, ay],
+            [-ax, -ay, az],
+        ]
+    )
+
+
+def _check_tilted_less_than_90(rotation_peg_in_hole: FloatArray) -> float:
+    a_z = -float(rotation_peg_in_hole[2, 2])
+    if not a_z > 1e-9:
+        tilt = math.degrees(math.acos(max(-1.0, min(1.0, a_z))))
+        raise InputError(
+            "rotation_peg_in_hole",
+            f"a peg tilted {tilt:.1f} deg from the hole axis",
+            "a peg pointing into the hole (tilt below 90 deg: the peg's z axis along -z of {H})",
+        )
+    return a_z
+
+
+def features_from_pose(
+    rotation_peg_in_hole: ArrayLike, position_peg_in_hole: ArrayLike, peg_radius: float
+) -> FloatArray:
+    """Features ``(dx, dy, l, theta_x, theta_y)`` of the peg frame {P} posed in {H} [m, rad].
+
+    Args:
+        rotation_peg_in_hole: ``R_HP``, (3, 3).
+        position_peg_in_hole: ``p_HP``, the tip centre in {H} [m], (3,).
+        peg_radius: r [m].
+    """
+    rot = np.asarray(rotation_peg_in_hole, dtype=float)
+    pos = np.asarray(position_peg_in_hole, dtype=float)
+    a_z = _check_tilted_less_than_90(rot)
+    a_x, a_y = -float(rot[0, 2]), -float(rot[1, 2])
+    sin_t = math.hypot(a_x, a_y)
+    # Lowest point of the end face at depth l cos(theta) (eq. 5, s = 0): it is r sin(theta)
+    # below the tip centre, which is at depth -p_z.
+    depth = (-float(pos[2]) + peg_radius * sin_t) / a_z
+    # O_p of eq. 5 at the slice through the axis point l/2 from the tip; a_xy = sin(theta) e.
+    along = 0.5 * depth + peg_radius * sin_t * (1.0 - 1.0 / a_z)
+    return np.array(
+        [
+            float(pos[0]) + along * a_x,
+            float(pos[1]) + along * a_y,
+            depth,
+            math.atan2(-a_y, a_z),
+            math.atan2(a_x, a_z),
+        ]
+    )
+
+
+def pose_from_features(
+    features: ArrayLike, peg_radius: float, spin: float = 0.0
+) -> tuple[FloatArray, FloatArray]:
+    """The pose ``(R_HP, p_HP)`` of the peg frame in {H} with these features; inverse of
+    :func:`features_from_pose` for any spin.
+
+    Args:
+        features: ``(dx, dy, l, theta_x, theta_y)`` [m, rad]; tilts within (-90°, 90°).
+        peg_radius: r [m].
+        spin: Rotation of the peg about its own axis [rad], see :func:`spin_of`.
+    """
+    dx, dy, depth, theta_x, theta_y = (float(v) for v in np.asarray(features, dtype=float))
+    if not (abs(theta_x) < 0.5 * math.pi and abs(theta_y) < 0.5 * math.pi):
+        raise InputError(
+            "features (theta_x, theta_y)", (theta_x, theta_y), "tilts within (-pi/2, pi/2) rad"
+        )
+    # Upward axis from the projected tilts (eq. 3): a ∝ (tan theta_y, -tan theta_x, 1).
+    tx, ty = math.tan(theta_y), -math.tan(theta_x)
+    norm = math.sqrt(1.0 + tx * tx + ty * ty)
+    axis = np.array([tx / norm, ty / norm, 1.0 / norm])
+    a_z = axis[2]
+    sin_t = math.hypot(axis[0], axis[1])
+    rotation = _swing(axis) @ R_ALIGNED @ _rot_z(spin)
+    along = 0.5 * depth + peg_radius * sin_t * (1.0 - 1.0 / a_z)
+    position = np.array(
+        [
+            dx - along * axis[0],
+            dy - along * axis[1],
+            -(depth * a_z - peg_radius * sin_t),
+        ]
+    )
+    return rotation, position
+
+
+def spin_of(rotation_peg_in_hole: ArrayLike) -> float:
+    """The peg's rotation about its own axis [rad]: ``R_HP = S(a) R_aligned R_z(spin)``, with
+    ``S(a)`` the minimal rotation tilting z to the upward axis ``a``."""
+    rot = np.asarray(rotation_peg_in_hole, dtype=float)
+    _check_tilted_less_than_90(rot)
+    twist = R_ALIGNED.T @ _swing(-rot[:, 2]).T @ rot
+    return math.atan2(float(twist[1, 0]), float(twist[0, 0]))
+
+
+def _rot_z(angle: float) -> FloatArray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
