@@ -75,6 +75,22 @@ def test_colcon_installs_what_ros2_run_looks_up(colcon_install: Path) -> None:
         cwd="/",
     )
     assert help_run.returncode == 0 and "Fig. 5" in help_run.stdout
+    # The iiwa URDF is installed to share/ and travels with the installed code that loads it.
+    assert (prefix / "share/fbcc_ros/urdf/iiwa14.urdf").is_file()
+    load = subprocess.run(
+        [
+            str(VENV_BIN / "python"),
+            "-c",
+            "from fbcc_ros.core.kinematics import ROBOTS, RobotModel;"
+            "RobotModel.from_name('iiwa14'); print(ROBOTS['iiwa14']().urdf)",
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd="/",
+    )
+    assert load.returncode == 0, load.stderr
+    assert load.stdout.strip().startswith(str(site)), load.stdout
 
 
 def test_maps_draws_the_figures(tmp_path: Path) -> None:

@@ -13,8 +13,10 @@ import statistics
 import time
 
 import numpy as np
+import pinocchio as pin
 
 from fbcc_ros.cli.common import paper_pair, paper_scenario
+from fbcc_ros.core.kinematics import CellKinematics, RobotModel, solve_ik
 from fbcc_ros.core.montecarlo import draw_trials, run_montecarlo
 from fbcc_ros.core.scenario import validate
 from fbcc_ros.core.simulation import simulate
@@ -26,6 +28,9 @@ BATCH_TARGET_PER_S = 50_000.0
 REALTIME_TARGET = 20.0
 MONTECARLO_TARGET_S = 60.0
 MONTECARLO_TRIALS = 1000
+# Targets of issue 4: feature solution <= 20 µs; one IK solve for a 1 ms control step <= 100 µs.
+FEATURES_TARGET_US = 20.0
+IK_TARGET_US = 100.0
 
 
 def _random_features(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -87,6 +92,39 @@ def bench_montecarlo(fit: str, trials: int, workers: int) -> float:
     return time.perf_counter() - t0
 
 
+def bench_kinematics(robot_name: str, steps: int) -> tuple[float, float, float]:
+    """Median feature solution [µs], and median and p99 TCP solution (IK) per 1 ms step [µs].
+
+    The TCP solution follows the command features of the simulated FBCC assembly (Fig. 9,
+    interference fit) step by step, warm-started from the previous joints, with the one-period
+    velocity bound: the work the kinematics node does in the closed loop.
+    """
+    sc = validate(paper_scenario("interference"))
+    _, trajectory = simulate(sc, "fbcc", record=True)
+    assert trajectory is not None
+    commands = trajectory.command[:steps, 0, :]
+    robot = RobotModel.from_name(robot_name)
+    # The hole under the peg at home, aligned, its top face at the peg's tip.
+    hole = robot.peg_in_base(robot.home) * pin.SE3(np.diag([1.0, -1.0, -1.0]), np.zeros(3))
+    cell = CellKinematics(robot, hole, sc.geometry.peg_radius)
+    q = solve_ik(robot, cell.peg_target(commands[0], 0.0), robot.home).q
+    feature_times, ik_times = [], []
+    for x_c in commands:
+        t0 = time.perf_counter()
+        cell.features(q)
+        t1 = time.perf_counter()
+        q = cell.tcp_solution(x_c, q, dt=1.0 / sc.rate_hz).q
+        t2 = time.perf_counter()
+        feature_times.append(t1 - t0)
+        ik_times.append(t2 - t1)
+    ik_us = np.asarray(ik_times) * 1e6
+    return (
+        statistics.median(feature_times) * 1e6,
+        float(np.median(ik_us)),
+        float(np.percentile(ik_us, 99)),
+    )
+
+
 def _line(figure: str, measured: str, target: str, ratio: float) -> None:
     print(f"{figure:46s} {measured:>12s} {target:>12s} {ratio:7.2f}")
 
@@ -113,6 +151,14 @@ def main(argv: list[str] | None = None) -> int:
     rt = bench_assembly("interference", 1 if args.short else 5)
     _line("one assembly at 1 kHz [x real time]", f"{rt:.1f}", f">= {REALTIME_TARGET:.0f}",
           rt / REALTIME_TARGET)  # fmt: skip
+    for robot in ("iiwa14",) if args.short else ("iiwa14", "panda", "ur5"):
+        features_us, ik_us, ik_p99 = bench_kinematics(robot, 300 if args.short else 5000)
+        _line(f"feature solution [µs] ({robot})", f"{features_us:.1f}",
+              f"<= {FEATURES_TARGET_US:.0f}", FEATURES_TARGET_US / features_us)  # fmt: skip
+        _line(f"TCP solution (IK), 1 ms step [µs] ({robot})", f"{ik_us:.1f}",
+              f"<= {IK_TARGET_US:.0f}", IK_TARGET_US / ik_us)  # fmt: skip
+        _line(f"  same, p99 [µs] ({robot})", f"{ik_p99:.1f}", f"<= {IK_TARGET_US:.0f}",
+              IK_TARGET_US / ik_p99)  # fmt: skip
     trials = 100 if args.short else MONTECARLO_TRIALS
     seconds = bench_montecarlo("interference", trials, workers=2)
     projected = seconds * MONTECARLO_TRIALS / trials

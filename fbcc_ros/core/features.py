@@ -151,9 +151,14 @@ def spin_of(rotation_peg_in_hole: ArrayLike) -> float:
     """The peg's rotation about its own axis [rad]: ``R_HP = S(a) R_aligned R_z(spin)``, with
     ``S(a)`` the minimal rotation tilting z to the upward axis ``a``."""
     rot = np.asarray(rotation_peg_in_hole, dtype=float)
-    _check_tilted_less_than_90(rot)
-    twist = R_ALIGNED.T @ _swing(-rot[:, 2]).T @ rot
-    return math.atan2(float(twist[1, 0]), float(twist[0, 0]))
+    a_z = _check_tilted_less_than_90(rot)
+    # First column of R_z(spin) = R_aligned^T S(a)^T x_P, written out (S from _swing, a = -z_P).
+    a_x, a_y = -float(rot[0, 2]), -float(rot[1, 2])
+    x0, x1, x2 = (float(v) for v in rot[:, 0])
+    c = 1.0 / (1.0 + a_z)
+    cos_spin = (1.0 - a_x * a_x * c) * x0 - a_x * a_y * c * x1 - a_x * x2
+    sin_spin = -(-a_x * a_y * c * x0 + (1.0 - a_y * a_y * c) * x1 - a_y * x2)
+    return math.atan2(sin_spin, cos_spin)
 
 
 def _rot_z(angle: float) -> FloatArray:

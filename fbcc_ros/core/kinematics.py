@@ -168,6 +168,8 @@ class RobotModel:
         self.upper = np.array(model.upperPositionLimit, dtype=float)
         self.velocity_limit = np.array(model.velocityLimit, dtype=float)
         self.home = np.zeros(model.nq)
+        self._peg_in_flange = flange.placement.actInv(model.frames[self.peg_id].placement)
+        self._flange_in_peg = self._peg_in_flange.inverse()
 
     @classmethod
     def from_name(cls, robot: str, tool: Tool | None = None) -> RobotModel:
@@ -193,14 +195,17 @@ class RobotModel:
         return arr
 
     def within_limits(self, q: FloatArray) -> bool:
-        return bool(np.all(q >= self.lower) and np.all(q <= self.upper))
+        return bool((q >= self.lower).all() and (q <= self.upper).all())
 
     def _place(self, q: FloatArray) -> None:
         pin.forwardKinematics(self.model, self.data, q)
 
     def peg_in_base(self, q: ArrayLike) -> pin.SE3:
         """FK: pose of the peg frame in the base frame, ``T_base_P``."""
-        self._place(self.check_joints(q))
+        return self._peg_in_base(self.check_joints(q))
+
+    def _peg_in_base(self, q: FloatArray) -> pin.SE3:
+        self._place(q)
         return pin.updateFramePlacement(self.model, self.data, self.peg_id).copy()
 
     def flange_in_base(self, q: ArrayLike) -> pin.SE3:
@@ -210,9 +215,7 @@ class RobotModel:
 
     def peg_in_flange(self) -> pin.SE3:
         """The tool placement ``T_F_P`` (constant)."""
-        return self.model.frames[self.flange_id].placement.actInv(
-            self.model.frames[self.peg_id].placement
-        )
+        return self._peg_in_flange.copy()
 
     def jacobian(self, q: ArrayLike, frame: str = PEG_FRAME) -> FloatArray:
         """Frame Jacobian, (6, nq): ``(v, omega)`` of the frame's origin, both in base axes
@@ -303,18 +306,25 @@ def solve_ik(
         J_e = -J_{\\log_6} J_{P}^{local}, \\quad
         \\Delta q = -J_e^T (J_e J_e^T + \\lambda^2 I)^{-1} e
     """
-    model, data, fid = robot.model, robot.data, robot.peg_id
     q0 = robot.check_joints(q_start, "q_start")
-    lower, upper = robot.lower, robot.upper
-    if dt is not None:
-        if not (dt > 0.0 and math.isfinite(dt)):
-            raise InputError("dt", dt, "a control period > 0 [s]")
-        reach = robot.velocity_limit * dt
-        lower, upper = np.maximum(lower, q0 - reach), np.minimum(upper, q0 + reach)
     if not robot.within_limits(q0):
         limits = zip(robot.joint_names, q0, robot.lower, robot.upper, strict=True)
         outside = [name for name, v, lo, hi in limits if not lo <= v <= hi]
         raise InputError("q_start", q0.tolist(), f"joints within their position limits {outside}")
+    if dt is not None and not (dt > 0.0 and math.isfinite(dt)):
+        raise InputError("dt", dt, "a control period > 0 [s]")
+    return _clik(robot, peg_in_base, q0, dt, settings)
+
+
+def _clik(
+    robot: RobotModel, peg_in_base: pin.SE3, q0: FloatArray, dt: float | None, settings: IkSettings
+) -> IkSolution:
+    """The CLIK loop of :func:`solve_ik` on checked inputs."""
+    model, data, fid = robot.model, robot.data, robot.peg_id
+    lower, upper = robot.lower, robot.upper
+    if dt is not None:
+        reach = robot.velocity_limit * dt
+        lower, upper = np.maximum(lower, q0 - reach), np.minimum(upper, q0 + reach)
     damping2, tol2 = settings.damping**2, settings.tolerance**2
     q = q0.copy()
     for iteration in range(settings.max_iterations + 1):
@@ -430,11 +440,12 @@ class CellKinematics:
         ``dt``, the joints must be reachable within one period at the velocity limits.
         Raises :class:`IkError` rather than return a command that misses the target.
         """
-        q_now = self.robot.check_joints(q_current, "q_current")
-        spin = spin_of(self.peg_in_hole(q_now).rotation)
+        robot = self.robot
+        q_now = robot.check_joints(q_current, "q_current")
+        spin = spin_of(self.hole_in_base.actInv(robot._peg_in_base(q_now)).rotation)
         target = self.peg_target(command_features, spin)
-        solution = solve_ik(self.robot, target, q_now, dt, self.settings)
-        flange = target * self.robot.peg_in_flange().inverse()
+        solution = solve_ik(robot, target, q_now, dt, self.settings)
+        flange = target * robot._flange_in_peg
         return TcpCommand(solution.q, flange, target, solution.iterations)
 
 
