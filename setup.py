@@ -33,6 +33,7 @@ setup(
             "fbcc-mapping-study = fbcc_ros.cli.mapping_study:main",
             "fbcc-sim = fbcc_ros.cli.sim:main",
             "fbcc-montecarlo = fbcc_ros.cli.montecarlo:main",
+            "fbcc-kinematics = fbcc_ros.cli.kinematics:main",
         ],
     },
 )

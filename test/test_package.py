@@ -12,7 +12,14 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 VENV_BIN = Path(sys.executable).parent
-EXECUTABLES = ("fbcc-bench", "fbcc-maps", "fbcc-mapping-study", "fbcc-sim", "fbcc-montecarlo")
+EXECUTABLES = (
+    "fbcc-bench",
+    "fbcc-maps",
+    "fbcc-mapping-study",
+    "fbcc-sim",
+    "fbcc-montecarlo",
+    "fbcc-kinematics",
+)
 
 
 def test_package_xml_is_accepted_by_catkin_pkg() -> None:

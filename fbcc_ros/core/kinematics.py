@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.metadata
 import math
+import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -29,7 +30,12 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.linalg import lapack
 
 from fbcc_ros.core.errors import ConfigError, FbccError, InputError
-from fbcc_ros.core.features import features_from_pose, pose_from_features, spin_of
+from fbcc_ros.core.features import (
+    R_ALIGNED,
+    features_from_pose,
+    pose_from_features,
+    spin_of,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -464,6 +470,57 @@ class TcpCommand:
     flange_in_base: pin.SE3
     peg_in_base: pin.SE3
     iterations: int
+
+
+@dataclasses.dataclass(frozen=True)
+class FollowResult:
+    """The TCP solution applied along a command trajectory, one row per control step.
+
+    Attributes:
+        q: Joint positions commanded, (T, nq) [rad].
+        features: Features of those joints (the feature solution), (T, 5) [m, rad].
+        iterations: IK iterations per step, (T,).
+        seconds: Wall time of each step's TCP solution, (T,) [s].
+    """
+
+    q: FloatArray
+    features: FloatArray
+    iterations: NDArray[np.int64]
+    seconds: FloatArray
+
+
+def follow(
+    cell: CellKinematics, commands: ArrayLike, q_start: ArrayLike, dt: float
+) -> FollowResult:
+    """Run the TCP solution on each command features row in turn, warm-started from the
+    previous step and bounded by the velocity limits over ``dt`` [s], as the kinematics node
+    does in the closed loop. Raises :class:`IkError` (with the step in its message) on the
+    first step the robot cannot follow."""
+    x_c = np.asarray(commands, dtype=float)
+    q = cell.robot.check_joints(q_start, "q_start")
+    steps = x_c.shape[0]
+    joints = np.empty((steps, q.size))
+    features = np.empty((steps, 5))
+    iterations = np.empty(steps, dtype=np.int64)
+    seconds = np.empty(steps)
+    for k in range(steps):
+        t0 = time.perf_counter()
+        try:
+            command = cell.tcp_solution(x_c[k], q, dt)
+        except IkError as exc:
+            exc.args = (f"step {k} (t = {k * dt:.3f} s): {exc}",)
+            raise
+        seconds[k] = time.perf_counter() - t0
+        q = command.q
+        joints[k], iterations[k] = q, command.iterations
+        features[k] = cell.features(q)
+    return FollowResult(joints, features, iterations, seconds)
+
+
+def aligned_hole_at(peg_in_base: pin.SE3) -> pin.SE3:
+    """``T_base_H`` of a hole whose top face centre is at the peg's tip and whose axis is the
+    peg's: the peg at this pose has features (0, 0, 0, 0, 0) and zero spin."""
+    return peg_in_base * pin.SE3(R_ALIGNED.T, np.zeros(3))
 
 
 def pose(xyz: ArrayLike, rpy: ArrayLike = (0.0, 0.0, 0.0)) -> pin.SE3:

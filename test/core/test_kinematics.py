@@ -19,6 +19,8 @@ from fbcc_ros.core.kinematics import (
     IkError,
     RobotModel,
     Tool,
+    aligned_hole_at,
+    follow,
     pose,
     solve_ik,
 )
@@ -249,6 +251,25 @@ def test_features_to_joints_to_features_round_trip(robot: RobotModel) -> None:
         # The flange command carries the same pose through the tool placement.
         flange = command.flange_in_base * robot.peg_in_flange()
         assert max(_pose_error(flange, command.peg_in_base)) <= 1e-12
+
+
+def test_aligned_hole_and_following_a_command_trajectory(iiwa: RobotModel) -> None:
+    cell = CellKinematics(iiwa, aligned_hole_at(iiwa.peg_in_base(iiwa.home)), PEG_RADIUS)
+    np.testing.assert_allclose(cell.features(iiwa.home), np.zeros(5), atol=1e-12)
+    # Insert 2 mm at 5 mm/s while taking out a 1 mrad tilt: 400 steps of 1 ms.
+    steps = 400
+    commands = np.zeros((steps, 5))
+    commands[:, 2] = np.linspace(0.0, 0.002, steps)
+    commands[:, 4] = np.linspace(1e-3, 0.0, steps)
+    start = cell.tcp_solution(commands[0], iiwa.home).q
+    result = follow(cell, commands, start, dt=1e-3)
+    np.testing.assert_allclose(result.features, commands, atol=1e-6)
+    assert result.q.shape == (steps, 7) and result.iterations.max() <= 2
+    assert np.all(np.abs(np.diff(result.q, axis=0)) <= iiwa.velocity_limit * 1e-3 + 1e-15)
+    # A jump of 5 cm halfway through is refused at that step, not clipped.
+    commands[200:, 0] += 0.05
+    with pytest.raises(IkError, match=r"step 200 \(t = 0\.200 s\).*velocity limit"):
+        follow(cell, commands, start, dt=1e-3)
 
 
 def test_tcp_solution_keeps_the_pegs_spin(iiwa: RobotModel) -> None:
