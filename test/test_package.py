@@ -144,3 +144,13 @@ def test_readme_scenario_example_validates() -> None:
     block = readme.split("```yaml\n", 1)[1].split("```", 1)[0]
     sc = validate(yaml.safe_load(block))
     assert sc.laws == ("fbcc", "admittance") and sc.geometry.fit == "clearance"
+
+
+def test_readme_python_examples_run(capsys: pytest.CaptureFixture[str]) -> None:
+    readme = (ROOT / "README.md").read_text()
+    blocks = [b.split("```", 1)[0] for b in readme.split("```python\n")[1:]]
+    assert len(blocks) >= 2
+    for block in blocks:
+        exec(compile(block, "README.md", "exec"), {})  # each example stands alone
+    out = capsys.readouterr().out
+    assert "('D1', 'P0')" in out
