@@ -136,7 +136,10 @@ class RobotModel:
         path = Path(urdf)
         if not path.is_file():
             raise ConfigError("urdf", str(path), "the path of an existing URDF file")
-        model = pin.buildModelFromUrdf(str(path))
+        try:
+            model = pin.buildModelFromUrdf(str(path))
+        except (ValueError, RuntimeError) as exc:
+            raise ConfigError("urdf", str(path), f"a URDF Pinocchio can parse ({exc})") from exc
         self.name = name or model.name
         if locked_joints:
             missing = [j for j in locked_joints if not model.existJointName(j)]
@@ -155,8 +158,13 @@ class RobotModel:
         flange = model.frames[flange_id]
         placement = flange.placement * (tool or Tool()).placement()
         if model.existFrame(PEG_FRAME):
+            own = model.frames[model.getFrameId(PEG_FRAME)]
+            if own.parentJoint != flange.parentJoint:
+                raise ConfigError(
+                    "urdf", str(path), f"its '{PEG_FRAME}' frame on the same link as the flange"
+                )
             if tool is None:  # keep the URDF's own tool frame
-                placement = model.frames[model.getFrameId(PEG_FRAME)].placement
+                placement = own.placement
             model.frames[model.getFrameId(PEG_FRAME)].placement = placement
         else:
             model.addFrame(

@@ -308,6 +308,18 @@ def test_urdf_without_the_named_frames(tmp_path: Path) -> None:
         RobotModel(urdf, "iiwa_flange", locked_joints=["finger"])
     with pytest.raises(ConfigError, match=r"urdf=.*missing.urdf"):
         RobotModel(tmp_path / "missing.urdf", "iiwa_flange")
+    broken = tmp_path / "broken.urdf"
+    broken.write_text("<robot name='x'><link name='a'/><joint name='j'/></robot>")
+    with pytest.raises(ConfigError, match=r"urdf=.*broken.urdf.*Pinocchio can parse"):
+        RobotModel(broken, "a")
+    # A 'peg' frame hung on another link than the flange cannot take the tool placement.
+    elsewhere = tmp_path / "peg_elsewhere.urdf"
+    joint = '<parent link="{}"/>\n    <child link="peg"/>'
+    text = urdf.read_text()
+    assert joint.format("iiwa_flange") in text
+    elsewhere.write_text(text.replace(joint.format("iiwa_flange"), joint.format("iiwa_link_5")))
+    with pytest.raises(ConfigError, match=r"'peg' frame on the same link as the flange"):
+        RobotModel(elsewhere, "iiwa_flange")
 
 
 @pytest.mark.parametrize(
