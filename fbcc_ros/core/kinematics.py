@@ -211,21 +211,17 @@ class RobotModel:
     def within_limits(self, q: FloatArray) -> bool:
         return bool((q >= self.lower).all() and (q <= self.upper).all())
 
-    def _place(self, q: FloatArray) -> None:
-        pin.forwardKinematics(self.model, self.data, q)
-
     def peg_in_base(self, q: ArrayLike) -> pin.SE3:
         """FK: pose of the peg frame in the base frame, ``T_base_P``."""
-        return self._peg_in_base(self.check_joints(q))
-
-    def _peg_in_base(self, q: FloatArray) -> pin.SE3:
-        self._place(q)
-        return pin.updateFramePlacement(self.model, self.data, self.peg_id).copy()
+        return self._frame_in_base(self.check_joints(q), self.peg_id)
 
     def flange_in_base(self, q: ArrayLike) -> pin.SE3:
         """FK: pose of the flange frame in the base frame, ``T_base_F``."""
-        self._place(self.check_joints(q))
-        return pin.updateFramePlacement(self.model, self.data, self.flange_id).copy()
+        return self._frame_in_base(self.check_joints(q), self.flange_id)
+
+    def _frame_in_base(self, q: FloatArray, frame_id: int) -> pin.SE3:
+        pin.forwardKinematics(self.model, self.data, q)
+        return pin.updateFramePlacement(self.model, self.data, frame_id).copy()
 
     def peg_in_flange(self) -> pin.SE3:
         """The tool placement ``T_F_P`` (constant)."""
@@ -398,20 +394,19 @@ def _why(
 ) -> str:
     """Which bounds held the solver, in words."""
     held = []
-    for name, value, lo, hi, start, vmax in zip(
-        robot.joint_names, q, lower, upper, q0, robot.velocity_limit, strict=True
-    ):
-        for bound, side in ((lo, "lower"), (hi, "upper")):
-            if abs(value - bound) > 1e-9:
+    for i, name in enumerate(robot.joint_names):
+        for bound, limit, side in (
+            (lower[i], robot.lower[i], "lower"),
+            (upper[i], robot.upper[i], "upper"),
+        ):
+            if abs(q[i] - bound) > 1e-9:
                 continue
-            limit = robot.lower if side == "lower" else robot.upper
-            index = robot.joint_names.index(name)
-            if abs(bound - limit[index]) <= 1e-12:
+            if bound == limit:
                 held.append(f"{name} at its {side} position limit {bound:.4g} rad")
-            else:
+            else:  # the one-period box around the start, narrower than the position limits
                 held.append(
-                    f"{name} at its velocity limit ({vmax:.4g} rad/s: "
-                    f"{abs(bound - start):.3g} rad in dt={dt} s)"
+                    f"{name} at its velocity limit ({robot.velocity_limit[i]:.4g} rad/s: "
+                    f"{abs(bound - q0[i]):.3g} rad in dt={dt} s)"
                 )
     if held:
         return "held by " + "; ".join(held)
@@ -474,7 +469,9 @@ class CellKinematics:
         """
         robot = self.robot
         q_now = robot.check_joints(q_current, "q_current")
-        spin = spin_of(self.hole_in_base.actInv(robot._peg_in_base(q_now)).rotation)
+        spin = spin_of(
+            self.hole_in_base.actInv(robot._frame_in_base(q_now, robot.peg_id)).rotation
+        )
         target = self.peg_target(command_features, spin)
         solution = solve_ik(robot, target, q_now, dt, self.settings)
         flange = target * robot._flange_in_peg
