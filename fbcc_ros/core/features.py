@@ -51,7 +51,7 @@ FloatArray = NDArray[np.float64]
 R_ALIGNED = np.diag([1.0, -1.0, -1.0])
 
 
-def _swing(axis: FloatArray) -> FloatArray:
+def _swing(axis: tuple[float, float, float]) -> FloatArray:
     """The minimal rotation taking z to the unit vector ``axis`` (Rodrigues, closed form).
 
     .. math::
@@ -124,7 +124,10 @@ def pose_from_features(
         peg_radius: r [m].
         spin: Rotation of the peg about its own axis [rad], see :func:`spin_of`.
     """
-    dx, dy, depth, theta_x, theta_y = (float(v) for v in np.asarray(features, dtype=float))
+    values = np.asarray(features, dtype=float)
+    if values.shape != (5,):
+        raise InputError("features", features, "5 values (dx, dy, l, theta_x, theta_y)")
+    dx, dy, depth, theta_x, theta_y = values.tolist()
     if not (abs(theta_x) < 0.5 * math.pi and abs(theta_y) < 0.5 * math.pi):
         raise InputError(
             "features (theta_x, theta_y)", (theta_x, theta_y), "tilts within (-pi/2, pi/2) rad"
@@ -132,10 +135,12 @@ def pose_from_features(
     # Upward axis from the projected tilts (eq. 3): a ∝ (tan theta_y, -tan theta_x, 1).
     tx, ty = math.tan(theta_y), -math.tan(theta_x)
     norm = math.sqrt(1.0 + tx * tx + ty * ty)
-    axis = np.array([tx / norm, ty / norm, 1.0 / norm])
+    axis = (tx / norm, ty / norm, 1.0 / norm)
     a_z = axis[2]
     sin_t = math.hypot(axis[0], axis[1])
-    rotation = _swing(axis) @ R_ALIGNED @ _rot_z(spin)
+    c, s = math.cos(spin), math.sin(spin)
+    # R_HP = S(a) R_aligned R_z(spin), the last two multiplied out.
+    rotation = _swing(axis) @ np.array([[c, -s, 0.0], [-s, -c, 0.0], [0.0, 0.0, -1.0]])
     along = 0.5 * depth + peg_radius * sin_t * (1.0 - 1.0 / a_z)
     position = np.array(
         [
@@ -159,8 +164,3 @@ def spin_of(rotation_peg_in_hole: ArrayLike) -> float:
     cos_spin = (1.0 - a_x * a_x * c) * x0 - a_x * a_y * c * x1 - a_x * x2
     sin_spin = -(-a_x * a_y * c * x0 + (1.0 - a_y * a_y * c) * x1 - a_y * x2)
     return math.atan2(sin_spin, cos_spin)
-
-
-def _rot_z(angle: float) -> FloatArray:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])

@@ -352,32 +352,35 @@ def _clik(
         pin.computeJointJacobians(model, data)
         jac = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
         jac_e = -pin.Jlog6(target_in_peg.inverse()) @ jac
-        step = _dls_step(jac_e, err, damping2)
-        # Active set: joints pinned at a bound that the step pushes further are taken out of
-        # the Jacobian, so the others (a redundant arm's null space) carry the correction.
-        blocked = ((q <= lower) & (step < 0.0)) | ((q >= upper) & (step > 0.0))
-        if blocked.any():
-            jac_e[:, blocked] = 0.0
-            step = _dls_step(jac_e, err, damping2)
-        largest = float(np.abs(step).max())
-        if largest > settings.max_step:
-            step *= settings.max_step / largest
-        q_next = np.minimum(np.maximum(q + step, lower), upper)
-        if float(np.abs(q_next - q).max()) < _STALLED:
-            break  # every useful direction is blocked by a bound: fail now, not in 200 steps
+        step = _dls_step(jac_e, err, damping2, settings.max_step)
+        unclipped = q + step
+        q_next = np.minimum(np.maximum(unclipped, lower), upper)
+        if (q_next != unclipped).any():
+            # Active set: joints pinned at a bound that the step pushes further are taken out
+            # of the Jacobian, so the others (a redundant arm's null space) carry the correction.
+            blocked = ((q <= lower) & (step < 0.0)) | ((q >= upper) & (step > 0.0))
+            if blocked.any():
+                jac_e[:, blocked] = 0.0
+                step = _dls_step(jac_e, err, damping2, settings.max_step)
+                q_next = np.minimum(np.maximum(q + step, lower), upper)
+            if float(np.abs(q_next - q).max()) < _STALLED:
+                break  # every useful direction is blocked by a bound: fail now, not in 200 steps
         q = q_next
     pos_err, rot_err = math.sqrt(pos2), math.sqrt(rot2)
     raise IkError(_why(robot, q, lower, upper, q0, dt), pos_err, rot_err, iteration)
 
 
-def _dls_step(jac_e: FloatArray, err: FloatArray, damping2: float) -> FloatArray:
-    """Damped least squares, ``-J^T (J J^T + lambda^2 I)^-1 e``."""
+def _dls_step(jac_e: FloatArray, err: FloatArray, damping2: float, max_step: float) -> FloatArray:
+    """Damped least squares, ``-J^T (J J^T + lambda^2 I)^-1 e``, scaled to at most
+    ``max_step`` per joint."""
     normal = jac_e @ jac_e.T
     normal.flat[::7] += damping2
     # (J J^T + lambda^2 I) is symmetric positive definite: LAPACK's Cholesky solve, 4x cheaper
     # per call than numpy.linalg.solve at this size.
     _, weights, _ = lapack.dposv(normal, err)
-    return -jac_e.T @ weights
+    step = -jac_e.T @ weights
+    largest = float(np.abs(step).max())
+    return step * (max_step / largest) if largest > max_step else step
 
 
 #: A clipped step smaller than this [rad] means the solver is pinned against its bounds.
