@@ -1,0 +1,107 @@
+"""Dynamic compensation, part 1 (fbcc_ros.core.payload): the payload's wrench on the sensor against
+hand-worked cases and Pinocchio's rigid-body dynamics, compensation cancelling a pure payload at
+any orientation and motion, and the static calibration."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.payload import (
+    GRAVITY_BASE,
+    Motion,
+    Payload,
+    calibrate_static,
+    compensate,
+    payload_wrench,
+)
+
+PEG_HOLDER = Payload(
+    0.8, (0.002, -0.001, 0.06), ((2e-3, 1e-5, 0.0), (1e-5, 2e-3, 0.0), (0.0, 0.0, 4e-4))
+)
+
+vectors = st.lists(st.floats(-20.0, 20.0), min_size=3, max_size=3).map(np.array)
+quaternions = st.lists(st.floats(-1.0, 1.0), min_size=4, max_size=4).filter(
+    lambda q: np.linalg.norm(q) > 0.1
+)
+
+
+def test_weight_at_rest_hand_worked() -> None:
+    # 1 kg, 10 cm along +x of a z-up sensor: the weight (0, 0, -g) and, by r x F, +0.98 N m
+    # about y.
+    wrench = payload_wrench(Payload(1.0, (0.1, 0.0, 0.0)), Motion.at_rest(np.eye(3)))
+    np.testing.assert_allclose(wrench, [0, 0, -9.80665, 0, 0.980665, 0], atol=1e-12)
+    # Turned upside down (half a turn about x), the same weight reads +g along the sensor's z.
+    flipped = payload_wrench(Payload(1.0), Motion.at_rest(np.diag([1.0, -1.0, -1.0])))
+    np.testing.assert_allclose(flipped[:3], [0, 0, 9.80665], atol=1e-12)
+
+
+@settings(max_examples=200, deadline=None)
+@given(quaternions, vectors, vectors, vectors, vectors)
+def test_matches_pinocchio_rigid_body_dynamics(quat, velocity, accel, omega, omega_dot) -> None:
+    """The reaction of the force Pinocchio needs to move the body: f = I a + v x* I v, with
+    gravity as an acceleration of the frame and a the spatial acceleration."""
+    rotation = Rotation.from_quat(quat).as_matrix()
+    motion = Motion(rotation.T @ GRAVITY_BASE, accel, omega, omega_dot)
+    inertia = pin.Inertia(PEG_HOLDER.mass, np.array(PEG_HOLDER.com), np.array(PEG_HOLDER.inertia))
+    v = pin.Motion(velocity, omega)
+    # spatial acceleration of the frame, gravity folded in: classic a_o - g, minus omega x v_o
+    a = pin.Motion(accel - motion.gravity - np.cross(omega, velocity), omega_dot)
+    needed = inertia * a + v.cross(inertia * v)
+    np.testing.assert_allclose(
+        payload_wrench(PEG_HOLDER, motion), -needed.vector, rtol=1e-10, atol=1e-9
+    )
+
+
+@settings(max_examples=200, deadline=None)
+@given(quaternions, vectors, vectors, vectors, vectors)
+def test_compensation_cancels_a_pure_payload(quat, accel, omega, omega_dot, bias3) -> None:
+    rotation = Rotation.from_quat(quat).as_matrix()
+    motion = Motion(rotation.T @ GRAVITY_BASE, accel, omega, omega_dot)
+    bias = np.concatenate([bias3, bias3[::-1] * 0.1])
+    reading = payload_wrench(PEG_HOLDER, motion) + bias
+    np.testing.assert_allclose(compensate(reading, PEG_HOLDER, motion, bias), 0.0, atol=1e-12)
+
+
+def test_static_calibration_recovers_mass_com_and_bias_from_noisy_poses() -> None:
+    rng = np.random.default_rng(2)
+    truth = Payload(0.8, (0.002, -0.001, 0.06))
+    bias = np.array([1.5, -0.7, 3.0, 0.05, -0.02, 0.01])
+    rotations = Rotation.random(24, random_state=3).as_matrix()
+    readings = np.array([payload_wrench(truth, Motion.at_rest(r)) for r in rotations]) + bias
+    readings += rng.normal(0.0, [0.05] * 3 + [0.002] * 3, size=readings.shape)  # sensor noise
+    fit = calibrate_static(rotations, readings)
+    assert fit.payload.mass == pytest.approx(0.8, abs=0.01)
+    np.testing.assert_allclose(fit.payload.com, truth.com, atol=1e-3)
+    np.testing.assert_allclose(fit.bias[:3], bias[:3], atol=0.05)
+    np.testing.assert_allclose(fit.bias[3:], bias[3:], atol=0.003)
+    assert fit.residual_rms[0] == pytest.approx(0.05, rel=0.3)
+    assert fit.condition < 10
+
+
+def test_calibration_refuses_poses_that_do_not_excite_every_parameter() -> None:
+    # Rotations about the vertical only: gravity is always along -z of the sensor, so the mass
+    # and the z bias cannot be told apart.
+    rotations = Rotation.from_euler("z", np.linspace(0, 3, 10)[:, None]).as_matrix()
+    readings = np.array([payload_wrench(PEG_HOLDER, Motion.at_rest(r)) for r in rotations])
+    with pytest.raises(InputError, match=r"condition number .* tilt the sensor"):
+        calibrate_static(rotations, readings)
+
+
+def test_bad_input() -> None:
+    motion = Motion.at_rest(np.eye(3))
+    with pytest.raises(InputError, match="wrench"):
+        compensate([0, 0, np.nan, 0, 0, 0], PEG_HOLDER, motion, np.zeros(6))
+    with pytest.raises(InputError, match="wrench"):
+        compensate([0, 0, 0], PEG_HOLDER, motion, np.zeros(6))
+    with pytest.raises(ConfigError, match=r"payload\.mass"):
+        Payload(-1.0)
+    with pytest.raises(ConfigError, match=r"payload\.inertia"):
+        Payload(1.0, inertia=((1.0, 0, 0), (0, -1.0, 0), (0, 0, 1.0)))
+    with pytest.raises(InputError, match="poses"):
+        calibrate_static(np.eye(3)[None], np.zeros((1, 6)))
