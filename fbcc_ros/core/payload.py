@@ -118,7 +118,7 @@ def compensate(
     measured = np.asarray(wrench_measured, dtype=float)
     if measured.shape != (6,) or not np.isfinite(measured).all():
         raise InputError("wrench", wrench_measured, "6 finite numbers (Fx, Fy, Fz, Tx, Ty, Tz)")
-    return measured - payload_wrench(payload, motion) - np.asarray(bias, dtype=float)
+    return measured - payload_wrench(payload, motion) - _vector(bias, "bias", 6)
 
 
 @dataclasses.dataclass(frozen=True)

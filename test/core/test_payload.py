@@ -99,6 +99,8 @@ def test_bad_input() -> None:
         compensate([0, 0, np.nan, 0, 0, 0], PEG_HOLDER, motion, np.zeros(6))
     with pytest.raises(InputError, match="wrench"):
         compensate([0, 0, 0], PEG_HOLDER, motion, np.zeros(6))
+    with pytest.raises(ConfigError, match="bias"):
+        compensate(np.zeros(6), PEG_HOLDER, motion, np.zeros(3))
     with pytest.raises(ConfigError, match=r"payload\.mass"):
         Payload(-1.0)
     with pytest.raises(ConfigError, match=r"payload\.inertia"):
