@@ -227,19 +227,57 @@ class RobotModel:
         """The tool placement ``T_F_P`` (constant)."""
         return self._peg_in_flange.copy()
 
+    def add_frame(self, name: str, in_flange: pin.SE3) -> None:
+        """Adds (or moves) a frame fixed to the flange, e.g. a wrist sensor's measuring frame."""
+        if name in (PEG_FRAME, self.flange_frame):
+            raise ConfigError("frame", name, f"a name other than '{PEG_FRAME}' and the flange's")
+        flange = self.model.frames[self.flange_id]
+        placement = flange.placement * in_flange
+        if self.model.existFrame(name):
+            self.model.frames[self.model.getFrameId(name)].placement = placement
+        else:
+            self.model.addFrame(
+                pin.Frame(
+                    name, flange.parentJoint, self.flange_id, placement, pin.FrameType.OP_FRAME
+                )
+            )
+            self.data = self.model.createData()
+
+    def frame_id(self, frame: str) -> int:
+        if not self.model.existFrame(frame):
+            frames = [f.name for f in self.model.frames if f.type != pin.FrameType.JOINT]
+            raise ConfigError("frame", frame, f"a frame of {self.name}: {frames}")
+        return int(self.model.getFrameId(frame))
+
+    def frame_in_base(self, q: ArrayLike, frame: str) -> pin.SE3:
+        """FK of any frame of the model, ``T_base_frame``."""
+        return self._frame_in_base(self.check_joints(q), self.frame_id(frame))
+
+    def frame_motion(
+        self, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike, frame: str
+    ) -> tuple[pin.SE3, pin.Motion, pin.Motion]:
+        """Pose ``T_base_frame``, velocity and classical acceleration of a frame's origin.
+
+        The velocity ``(v, omega)`` and the acceleration ``(a, omega_dot)`` are in the frame's
+        own axes (Pinocchio's LOCAL); ``a`` is the classical (not spatial) acceleration of the
+        origin, the one an accelerometer there would read, less gravity.
+        """
+        fid = self.frame_id(frame)
+        q_, dq_, ddq_ = (self.check_joints(x, f) for x, f in ((q, "q"), (dq, "dq"), (ddq, "ddq")))
+        pin.forwardKinematics(self.model, self.data, q_, dq_, ddq_)
+        placement = pin.updateFramePlacement(self.model, self.data, fid).copy()
+        velocity = pin.getFrameVelocity(self.model, self.data, fid, pin.LOCAL)
+        accel = pin.getFrameClassicalAcceleration(self.model, self.data, fid, pin.LOCAL)
+        return placement, velocity, accel
+
     def jacobian(self, q: ArrayLike, frame: str = PEG_FRAME) -> FloatArray:
         """Frame Jacobian, (6, nq): ``(v, omega)`` of the frame's origin, both in base axes
         (Pinocchio's LOCAL_WORLD_ALIGNED)."""
         arr = self.check_joints(q)
-        if not self.model.existFrame(frame):
-            raise InputError("frame", frame, f"a frame of {self.name}")
+        fid = self.frame_id(frame)
         pin.computeJointJacobians(self.model, self.data, arr)
         pin.updateFramePlacements(self.model, self.data)
-        return np.array(
-            pin.getFrameJacobian(
-                self.model, self.data, self.model.getFrameId(frame), pin.LOCAL_WORLD_ALIGNED
-            )
-        )
+        return np.array(pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED))
 
 
 def _joint_names(model: pin.Model) -> list[str]:

@@ -122,20 +122,22 @@ def compensate(
 
 
 @dataclasses.dataclass(frozen=True)
-class StaticCalibration:
-    """Result of :func:`calibrate_static`.
+class Calibration:
+    """Result of :func:`calibrate_static` and :func:`calibrate_dynamic`.
 
     Attributes:
-        payload: Mass and centre of mass (inertia left at zero).
+        payload: Mass and centre of mass; the inertia too from a dynamic fit (zero otherwise).
         bias: Sensor bias (Fx, Fy, Fz, Tx, Ty, Tz) [N, N m].
         residual_rms: RMS of the fit's residual, force [N] and torque [N m].
         condition: Condition number of the (column-scaled) regression matrix.
+        samples: Number of samples fitted.
     """
 
     payload: Payload
     bias: FloatArray
     residual_rms: tuple[float, float]
     condition: float
+    samples: int
 
 
 #: Largest accepted condition number of the calibration regression: beyond it the poses do not
@@ -143,9 +145,38 @@ class StaticCalibration:
 MAX_CONDITION = 1e3
 
 
+def regressor(motion: Motion) -> FloatArray:
+    """The 6x10 matrix ``Y`` with ``payload_wrench = Y phi`` (Atkeson, An & Hollerbach 1986).
+
+    ``phi = (m, m cx, m cy, m cz, Ixx, Ixy, Ixz, Iyy, Iyz, Izz)`` with the inertia ``I_o`` taken
+    about the origin of {S} (``I_o = I_c + m (|c|^2 E - c c^T)``). The module doc's equations,
+    rewritten about the sensor origin, are linear in phi:
+
+    .. math::
+        F = m (g - a_o) - (\\dot\\omega_\\times + \\omega_\\times \\omega_\\times)(m c)
+
+        \\tau = -(g - a_o)_\\times (m c) - I_o \\dot\\omega - \\omega \\times I_o \\omega
+    """
+    g_a = motion.gravity - motion.linear_acceleration
+    w, dw = motion.angular_velocity, motion.angular_acceleration
+    w_x = _skew(w)
+    y = np.zeros((6, 10))
+    y[:3, 0] = g_a
+    y[:3, 1:4] = -(_skew(dw) + w_x @ w_x)
+    y[3:, 1:4] = -_skew(g_a)
+    y[3:, 4:] = -(_inertia_map(dw) + w_x @ _inertia_map(w))
+    return y
+
+
+def _inertia_map(v: FloatArray) -> FloatArray:
+    """The 3x6 matrix L(v) with ``I v = L(v) (Ixx, Ixy, Ixz, Iyy, Iyz, Izz)``."""
+    x, y, z = v
+    return np.array([[x, y, z, 0, 0, 0], [0, x, 0, y, z, 0], [0, 0, x, 0, y, z]], dtype=float)
+
+
 def calibrate_static(
     rotations_base_sensor: ArrayLike, wrenches: ArrayLike, max_condition: float = MAX_CONDITION
-) -> StaticCalibration:
+) -> Calibration:
     """Least-squares mass, centre of mass and bias from N static poses.
 
     At rest the reading is linear in the ten parameters ``(m, m c, b_F, b_tau)``:
@@ -159,27 +190,56 @@ def calibrate_static(
         max_condition: Refuse the fit when the regression's condition number exceeds this.
     """
     rotations = np.asarray(rotations_base_sensor, dtype=float)
-    readings = np.asarray(wrenches, dtype=float)
     n = rotations.shape[0] if rotations.ndim == 3 else 0
-    if rotations.shape != (n, 3, 3) or readings.shape != (n, 6) or n < 3:
+    if rotations.shape != (n, 3, 3) or n < 3 or not np.isfinite(rotations).all():
+        raise InputError("rotations", rotations.shape, "(N, 3, 3) finite rotations, N >= 3")
+    motions = [Motion.at_rest(r) for r in rotations]
+    return _fit(motions, wrenches, 4, max_condition, "tilt the sensor about at least two axes")
+
+
+def calibrate_dynamic(
+    motions: list[Motion], wrenches: ArrayLike, max_condition: float = MAX_CONDITION
+) -> Calibration:
+    """Least-squares mass, centre of mass, inertia and bias from a dynamic trajectory.
+
+    The reading is linear in the 16 parameters ``(phi, b_F, b_tau)`` (see :func:`regressor`).
+    The inertia is only identifiable when the trajectory has angular accelerations and rates
+    about every axis; otherwise the fit is refused by its condition number.
+
+    Args:
+        motions: The sensor's motion at each sample (gravity, a_o, omega, omega_dot in {S}).
+        wrenches: (N, 6) readings in {S}.
+        max_condition: Refuse the fit when the regression's condition number exceeds this.
+    """
+    return _fit(
+        motions,
+        wrenches,
+        10,
+        max_condition,
+        "rotate the sensor about every axis with changing angular velocity, and tilt it",
+    )
+
+
+def _fit(
+    motions: list[Motion], wrenches: ArrayLike, n_phi: int, max_condition: float, hint: str
+) -> Calibration:
+    """Least squares of the first ``n_phi`` inertial parameters and the six biases."""
+    readings = np.asarray(wrenches, dtype=float)
+    n = len(motions)
+    if readings.shape != (n, 6) or n < 3:
         raise InputError(
-            "poses",
-            (rotations.shape, readings.shape),
-            "(N, 3, 3) rotations and (N, 6) wrenches, N >= 3",
+            "wrenches", readings.shape, f"(N, 6) with N = {n} samples matching the motions, N >= 3"
         )
-    if not (np.isfinite(rotations).all() and np.isfinite(readings).all()):
-        raise InputError("poses", "non-finite values", "finite rotations and wrenches")
-    g = rotations.transpose(0, 2, 1) @ GRAVITY_BASE  # (N, 3) gravity in {S}
-    rows = np.zeros((n, 6, 10))
-    eye = np.eye(3)
-    rows[:, :3, 0] = g  # F = m g + b_F
-    rows[:, :3, 4:7] = eye
-    rows[:, 3:, 1:4] = -_skew(g)  # tau = -[g]x (m c) + b_tau
-    rows[:, 3:, 7:10] = eye
-    a = rows.reshape(6 * n, 10)
+    if not np.isfinite(readings).all():
+        raise InputError("wrenches", "non-finite values", "finite wrenches")
+    rows = np.zeros((n, 6, n_phi + 6))
+    for row, motion in zip(rows, motions, strict=True):
+        row[:, :n_phi] = regressor(motion)[:, :n_phi]
+        row[:, n_phi:] = np.eye(6)  # + (b_F, b_tau)
+    a = rows.reshape(6 * n, n_phi + 6)
     b = readings.reshape(6 * n)
-    # Condition number with the columns scaled to unit norm (units differ: kg, kg m, N, N m);
-    # a column that never varies (a parameter no pose excites) makes it infinite.
+    # Condition number with the columns scaled to unit norm (units differ: kg, kg m, kg m²,
+    # N, N m); a column that never varies (a parameter nothing excites) makes it infinite.
     scale = np.linalg.norm(a, axis=0)
     singular = np.linalg.svd(a / np.where(scale > 0.0, scale, 1.0), compute_uv=False)
     condition = float(singular[0] / singular[-1]) if singular[-1] > 0.0 else np.inf
@@ -187,21 +247,30 @@ def calibrate_static(
         raise InputError(
             "poses",
             f"condition number {condition:.3g}",
-            f"poses whose gravity directions excite every parameter (condition <= "
-            f"{max_condition:.3g}; tilt the sensor about at least two axes)",
+            f"samples that excite every parameter (condition <= {max_condition:.3g}; {hint})",
         )
     x, *_ = np.linalg.lstsq(a, b, rcond=None)
     residual = (a @ x - b).reshape(n, 6)
     mass = float(x[0])
     com = x[1:4] / mass if mass > 0 else np.zeros(3)
-    return StaticCalibration(
-        Payload(max(mass, 0.0), tuple(com.tolist())),
-        x[4:10],
+    inertia = np.zeros((3, 3))
+    if n_phi == 10:
+        ixx, ixy, ixz, iyy, iyz, izz = x[4:10]
+        i_o = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+        # parallel axes: I_c = I_o - m (|c|^2 E - c c^T)
+        inertia = i_o - mass * (com @ com * np.eye(3) - np.outer(com, com))
+        # a noisy fit of a nearly point-like payload may come out slightly indefinite
+        vals, vecs = np.linalg.eigh(inertia)
+        inertia = (vecs * np.maximum(vals, 0.0)) @ vecs.T
+    return Calibration(
+        Payload(max(mass, 0.0), tuple(com.tolist()), tuple(map(tuple, inertia.tolist()))),
+        x[n_phi:],
         (
             float(np.sqrt(np.mean(residual[:, :3] ** 2))),
             float(np.sqrt(np.mean(residual[:, 3:] ** 2))),
         ),
         condition,
+        n,
     )
 
 

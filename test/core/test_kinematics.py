@@ -154,6 +154,49 @@ def _frame_pose(robot: RobotModel, q: np.ndarray, fid: int) -> pin.SE3:
     return pin.updateFramePlacement(robot.model, robot.data, fid).copy()
 
 
+def test_frame_motion_matches_finite_differences_along_a_trajectory() -> None:
+    """Velocity and classical acceleration of an added wrist-sensor frame, in its own axes,
+    against central differences of FK along q(t) = q0 + v t + a t^2 / 2."""
+    robot = RobotModel.from_name("iiwa14")
+    robot.add_frame("sensor", pose((0.01, -0.02, 0.03), (0.3, -0.2, 1.0)))
+    rng = np.random.default_rng(11)
+    for q0 in _random_configurations(robot, 5, seed=12):
+        v, a = rng.uniform(-1, 1, robot.nq), rng.uniform(-2, 2, robot.nq)
+        placement, velocity, accel = robot.frame_motion(q0, v, a, "sensor")
+        h = 1e-4
+        poses = [robot.frame_in_base(q0 + v * t + a * t * t / 2, "sensor") for t in (-h, 0, h)]
+        rot = placement.rotation
+        assert np.allclose(poses[1].homogeneous, placement.homogeneous)
+        lin_v = (poses[2].translation - poses[0].translation) / (2 * h)
+        lin_a = (poses[2].translation - 2 * poses[1].translation + poses[0].translation) / h**2
+        np.testing.assert_allclose(velocity.linear, rot.T @ lin_v, atol=1e-6)
+        np.testing.assert_allclose(accel.linear, rot.T @ lin_a, atol=1e-5)
+        omega = pin.log3(poses[2].rotation @ poses[0].rotation.T) / (2 * h)
+        np.testing.assert_allclose(velocity.angular, rot.T @ omega, atol=1e-6)
+        # omega_dot in own axes is R^T d(omega_base)/dt, omega_base = J(q(t)) q'(t) (J checked)
+        omegas = [
+            robot.jacobian(q0 + v * t + a * t * t / 2, "sensor")[3:] @ (v + a * t) for t in (-h, h)
+        ]
+        np.testing.assert_allclose(
+            accel.angular, rot.T @ (omegas[1] - omegas[0]) / (2 * h), atol=1e-6
+        )
+
+
+def test_added_frames_and_unknown_frames(iiwa: RobotModel) -> None:
+    robot = RobotModel.from_name("iiwa14")
+    offset = pose((0.0, 0.0, 0.035))
+    robot.add_frame("sensor", offset)
+    q = robot.home
+    expected = robot.flange_in_base(q) * offset
+    assert np.allclose(robot.frame_in_base(q, "sensor").homogeneous, expected.homogeneous)
+    robot.add_frame("sensor", pose((0.0, 0.0, 0.05)))  # moved, not duplicated
+    assert robot.frame_in_base(q, "sensor").translation[2] != expected.translation[2]
+    with pytest.raises(ConfigError, match=r"frame='nowhere'.*iiwa_flange"):
+        robot.frame_in_base(q, "nowhere")
+    with pytest.raises(ConfigError, match="frame='peg'"):
+        robot.add_frame("peg", offset)
+
+
 # --- IK round trips and refusals -------------------------------------------------------------
 
 

@@ -1,0 +1,320 @@
+"""Dynamic compensation (the paper's Fig. 7): from the raw sensor reading to the response.
+
+Per sample, :class:`Compensator` does, in this order:
+
+1. **Checks.** The reading's frame must be the configured sensor frame (an error naming both),
+   its stamp must be later than the last one, every value finite; a rejected sample is counted,
+   never propagated.
+2. **Payload and bias** are removed in the sensor frame {S} (:func:`payload.compensate`), with the
+   sensor's orientation and motion from the kinematics.
+3. **The sign.** A sensor under the hole (the paper's Section II) carries the hole fixture, so the
+   compensated reading *is* the wrench the peg exerts on the hole. A wrist sensor (the paper's
+   experiment) carries the peg and reads the wrench the hole exerts on the peg: the reaction, so
+   it is negated.
+4. **The acting point.** The wrench is expressed in {H} with the moment moved to the equivalent
+   acting point (:func:`wrench.transfer`, ``tau_A = tau_S + (p_S - p_A) x f``). The boundary
+   mapping is derived for the point L + H below the top face (eq. 12-13), so every sensor
+   placement is moved *there*; this replaces the paper's re-derivation of L and H for the wrist
+   sensor (Remark 2 of II.B, Section V.C) by the exact rigid-body lever.
+5. **Conditioning**, both off by default: low-pass, then dead band (:mod:`filters`).
+
+The output is the wire wrench (right-handed, {H}, about the acting point) and the response vector
+``(Fx, Fy, Fz, Mx, My)`` with ``Fz = -fz`` (:mod:`wrench`).
+
+A virtual sensor (the iiwa's external joint torques, as in the paper's experiment) enters at step
+2 as a wrist reading in the frame it is computed for.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import pinocchio as pin
+import yaml
+from numpy.typing import ArrayLike, NDArray
+
+from fbcc_ros.core.contact import PegHole
+from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.filters import LowPass, dead_band
+from fbcc_ros.core.kinematics import RobotModel
+from fbcc_ros.core.payload import GRAVITY_BASE, Calibration, Motion, Payload, compensate
+from fbcc_ros.core.wrench import response_from_wrench, transfer, virtual_wrench
+
+FloatArray = NDArray[np.float64]
+
+Placement = Literal["under_hole", "wrist"]
+PLACEMENTS = ("under_hole", "wrist")
+
+#: Name of the Pinocchio frame added at a wrist sensor's measuring frame.
+SENSOR_FRAME = "fbcc_sensor"
+
+#: Node name whose parameters the calibration YAML holds.
+NODE_NAME = "dynamic_compensation"
+
+
+def acting_point_of(peghole: PegHole) -> FloatArray:
+    """The equivalent acting point of eq. (12)-(13) in {H}: the centre of the hole's lower
+    surface, L + H below the top face."""
+    return np.array([0.0, 0.0, -(peghole.hole_depth + peghole.base_thickness)])
+
+
+@dataclasses.dataclass(frozen=True)
+class SensorSetup:
+    """Where the sensor is, what it carries, and how its output is conditioned.
+
+    Attributes:
+        placement: ``"under_hole"`` (the sensor carries the hole fixture, Section II) or
+            ``"wrist"`` (it carries the peg; the paper's experiment, and the virtual sensor).
+        frame: The ``frame_id`` the raw readings must carry.
+        pose: The sensor frame {S}: in {H} for ``under_hole``, in the flange frame for ``wrist``.
+        hole_in_base: ``T_base_H``; gives the direction of gravity in {S}.
+        acting_point: Where the output's moments are taken, in {H} [m]
+            (:func:`acting_point_of` gives the one the boundary mapping assumes).
+        payload: What the sensor carries between itself and the contact.
+        bias: Sensor offset ``(fx, fy, fz, tx, ty, tz)`` in {S} [N, N m].
+        lowpass_hz: Cut-off of the output low-pass [Hz]; 0 is off.
+        deadband: Dead band on the output's force and moment components [N, N m]; 0 is off.
+        acceleration_lowpass_hz: Cut-off of the low-pass on the joint accelerations that are
+            differentiated from the joint velocities, for the payload's inertial terms [Hz].
+        virtual_damping: lambda of the virtual sensor's damped pseudo-inverse.
+    """
+
+    placement: Placement = "under_hole"
+    frame: str = "ft_sensor"
+    pose: pin.SE3 = dataclasses.field(default_factory=pin.SE3.Identity)
+    hole_in_base: pin.SE3 = dataclasses.field(default_factory=pin.SE3.Identity)
+    acting_point: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    payload: Payload = dataclasses.field(default_factory=lambda: Payload(0.0))
+    bias: tuple[float, ...] = (0.0,) * 6
+    lowpass_hz: float = 0.0
+    deadband: tuple[float, float] = (0.0, 0.0)
+    acceleration_lowpass_hz: float = 10.0
+    virtual_damping: float = 0.01
+
+    def __post_init__(self) -> None:
+        if self.placement not in PLACEMENTS:
+            raise ConfigError("placement", self.placement, f"one of {PLACEMENTS}")
+        if not (isinstance(self.frame, str) and self.frame):
+            raise ConfigError("sensor_frame", self.frame, "a non-empty frame name")
+        _finite("acting_point", self.acting_point, 3)
+        _finite("bias", self.bias, 6)
+        band = _finite("deadband", self.deadband, 2)
+        if (band < 0).any():
+            raise ConfigError("deadband", self.deadband, "[force N, moment N m], both >= 0")
+        for field in ("pose", "hole_in_base"):
+            placement = getattr(self, field)
+            if not (isinstance(placement, pin.SE3) and np.isfinite(placement.homogeneous).all()):
+                raise ConfigError(field, placement, "a finite rigid transform")
+        if not (math.isfinite(self.virtual_damping) and self.virtual_damping >= 0.0):
+            raise ConfigError("virtual_sensor.damping", self.virtual_damping, "a damping >= 0")
+
+
+@dataclasses.dataclass(frozen=True)
+class Compensated:
+    """One compensated sample.
+
+    Attributes:
+        stamp: The reading's time [s].
+        wrench: ``(fx, fy, fz, mx, my, mz)`` the peg exerts on the hole, in {H}, moments about
+            the acting point: what goes on the wire.
+        response: ``(Fx, Fy, Fz, Mx, My)`` for the controller (``Fz = -fz``).
+    """
+
+    stamp: float
+    wrench: FloatArray
+    response: FloatArray
+
+
+class Compensator:
+    """The dynamic compensation of one sensor; see the module doc for the pipeline.
+
+    Args:
+        setup: The sensor's placement, payload, bias and filters.
+        robot: The arm, needed for a wrist sensor (its pose and motion come from the joints).
+    """
+
+    def __init__(self, setup: SensorSetup, robot: RobotModel | None = None) -> None:
+        self.setup = setup
+        self.robot = robot
+        self.counts = {
+            "accepted": 0,
+            "non_finite": 0,
+            "out_of_order": 0,
+            "no_joint_state": 0,
+            "joint_state_rejected": 0,
+        }
+        self._acting_point = np.asarray(setup.acting_point, dtype=float)
+        self._bias = np.asarray(setup.bias, dtype=float)
+        self._band = np.repeat(np.asarray(setup.deadband, dtype=float), 3)
+        self._lowpass = LowPass(setup.lowpass_hz)
+        self._accel_lowpass = LowPass(setup.acceleration_lowpass_hz, "acceleration_lowpass_hz")
+        self._last_stamp = -math.inf
+        self._joints: tuple[float, FloatArray, FloatArray, FloatArray] | None = None
+        if setup.placement == "wrist":
+            if robot is None:
+                raise ConfigError("robot", None, "a robot model for a wrist sensor")
+            robot.add_frame(SENSOR_FRAME, setup.pose)
+            self._hole_from_base = setup.hole_in_base.inverse()
+        else:
+            # A sensor under the hole does not move: {S} in {H} and gravity in {S} are constant.
+            self._static = (
+                setup.pose,
+                Motion.at_rest(setup.hole_in_base.rotation @ setup.pose.rotation),
+            )
+
+    def joints(self, stamp: float, q: ArrayLike, dq: ArrayLike | None = None) -> bool:
+        """Takes a joint state; velocities are differentiated from positions when absent, and
+        accelerations from velocities (low-passed). Returns False, counted, if rejected."""
+        if self.robot is None:
+            return True  # a sensor under the hole needs no joint state
+        try:
+            q_ = self.robot.check_joints(q)
+            dq_ = None if dq is None else self.robot.check_joints(dq, "dq")
+        except InputError:
+            self.counts["joint_state_rejected"] += 1
+            return False
+        if self._joints is None:
+            zero = np.zeros_like(q_)
+            self._joints = (stamp, q_, zero if dq_ is None else dq_, zero)
+            return True
+        t0, q0, dq0, _ = self._joints
+        dt = stamp - t0
+        if not dt > 0.0:
+            self.counts["joint_state_rejected"] += 1
+            return False
+        dq_ = (q_ - q0) / dt if dq_ is None else dq_
+        ddq = self._accel_lowpass((dq_ - dq0) / dt, dt)  # ddq ~ d(dq)/dt, low-passed
+        self._joints = (stamp, q_, dq_, ddq)
+        return True
+
+    def reading(self, stamp: float, frame_id: str, wrench: ArrayLike) -> Compensated | None:
+        """Compensates one raw reading of the physical sensor, or returns None (counted).
+
+        Raises:
+            InputError: The reading's frame is not the configured sensor frame.
+        """
+        if frame_id != self.setup.frame:
+            raise InputError(
+                "header.frame_id", frame_id, f"the configured sensor frame '{self.setup.frame}'"
+            )
+        return self._process(stamp, wrench)
+
+    def joint_torques(self, stamp: float, external_torques: ArrayLike) -> Compensated | None:
+        """Compensates the virtual sensor's wrench from the arm's external joint torques.
+
+        ``tau_ext = J^T w`` with ``w`` the wrench on the arm at the sensor frame (KUKA's and
+        lbr_fri_ros2's convention); :func:`wrench.virtual_wrench` inverts it.
+        """
+        if self.setup.placement != "wrist" or self.robot is None:
+            raise ConfigError("placement", self.setup.placement, "'wrist' for a virtual sensor")
+        if self._joints is None:
+            self.counts["no_joint_state"] += 1
+            return None
+        try:
+            w_base = virtual_wrench(
+                self.robot.jacobian(self._joints[1], SENSOR_FRAME),
+                external_torques,
+                self.setup.virtual_damping,
+            )
+        except InputError:
+            self.counts["non_finite"] += 1
+            return None
+        rot = self.robot.frame_in_base(self._joints[1], SENSOR_FRAME).rotation
+        # the Jacobian's wrench is in base axes about the frame's origin: rotate it into {S}
+        return self._process(stamp, np.concatenate([rot.T @ w_base[:3], rot.T @ w_base[3:]]))
+
+    def _process(self, stamp: float, wrench: ArrayLike) -> Compensated | None:
+        if not math.isfinite(stamp) or stamp <= self._last_stamp:
+            self.counts["out_of_order"] += 1
+            return None
+        state = self._sensor_state()
+        if state is None:
+            self.counts["no_joint_state"] += 1
+            return None
+        sensor_in_hole, motion = state
+        try:
+            contact = compensate(wrench, self.setup.payload, motion, self._bias)
+        except InputError:
+            self.counts["non_finite"] += 1
+            return None
+        if self.setup.placement == "wrist":
+            contact = -contact  # the sensor reads the hole's wrench on the peg: the reaction
+        out = transfer(contact, sensor_in_hole, self._acting_point)
+        dt = stamp - self._last_stamp
+        out = dead_band(self._lowpass(out, dt), self._band)
+        self._last_stamp = stamp
+        self.counts["accepted"] += 1
+        return Compensated(stamp, out, response_from_wrench(out))
+
+    def _sensor_state(self) -> tuple[pin.SE3, Motion] | None:
+        """``T_H_S`` and the sensor's motion in {S}, from the latest joint state if it moves."""
+        if self.setup.placement == "under_hole":
+            return self._static
+        if self._joints is None or self.robot is None:
+            return None
+        _, q, dq, ddq = self._joints
+        placement, velocity, accel = self.robot.frame_motion(q, dq, ddq, SENSOR_FRAME)
+        motion = Motion(
+            placement.rotation.T @ GRAVITY_BASE,
+            np.array(accel.linear),
+            np.array(velocity.angular),
+            np.array(accel.angular),
+        )
+        return self._hole_from_base * placement, motion
+
+
+def _finite(field: str, value: ArrayLike, size: int) -> FloatArray:
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != (size,) or not np.isfinite(arr).all():
+        raise ConfigError(field, value, f"{size} finite numbers")
+    return arr
+
+
+def calibration_yaml(fit: Calibration, comment: str) -> str:
+    """The parameter file the ``dynamic_compensation`` node loads, with the fit's quality in a
+    comment header."""
+    params = {
+        NODE_NAME: {
+            "ros__parameters": {
+                "payload": {
+                    "mass": float(fit.payload.mass),
+                    "com": [float(x) for x in fit.payload.com],
+                    "inertia": [float(x) for row in fit.payload.inertia for x in row],
+                },
+                "bias": [float(x) for x in fit.bias],
+            }
+        }
+    }
+    header = "".join(f"# {line}\n" for line in comment.splitlines())
+    return header + yaml.safe_dump(params, sort_keys=False)
+
+
+def load_calibration(path: str | Path) -> tuple[Payload, FloatArray]:
+    """Payload and bias from a file :func:`calibration_yaml` wrote (or a node parameter file
+    with the same keys)."""
+    try:
+        data: Any = yaml.safe_load(Path(path).read_text())
+        params = data[NODE_NAME]["ros__parameters"]
+        payload = params["payload"]
+        inertia = np.asarray(payload.get("inertia", [0.0] * 9), dtype=float).reshape(3, 3)
+        return (
+            Payload(
+                float(payload["mass"]),
+                tuple(float(x) for x in payload["com"]),  # type: ignore[arg-type]
+                tuple(map(tuple, inertia.tolist())),
+            ),
+            _finite("bias", params["bias"], 6),
+        )
+    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError) as exc:
+        if isinstance(exc, ConfigError):
+            raise
+        raise ConfigError(
+            "calibration",
+            str(path),
+            f"a YAML file with {NODE_NAME}.ros__parameters.payload.(mass, com, inertia) and .bias"
+            f" ({type(exc).__name__}: {exc})",
+        ) from exc

@@ -1,0 +1,76 @@
+"""Wrenches between frames, the response vector on the wire, and the virtual sensor.
+
+A wrench here is ``(fx, fy, fz, tx, ty, tz)``: a force and the moment about a stated point, both
+in a stated frame's axes, right-handed (DESIGN §3).
+
+The controller's response vector ``(Fx, Fy, Fz, Mx, My)`` differs from the wire wrench in one
+component only: ``Fz`` is eq. (11)'s axial friction resultant, positive while the peg is pushed in,
+whereas the force on the hole then points along -z of {H}. So ``Fz = -fz``; this module is the one
+place that maps between the two.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import ArrayLike, NDArray
+
+from fbcc_ros.core.errors import ConfigError, InputError
+
+FloatArray = NDArray[np.float64]
+
+
+def transfer(
+    wrench: ArrayLike, source_in_target: pin.SE3, point: ArrayLike = (0, 0, 0)
+) -> FloatArray:
+    """A wrench given in {source} axes about the source origin, in {target} axes about ``point``.
+
+    Args:
+        wrench: (6,) in {source}, moment about the origin of {source}.
+        source_in_target: ``T_target_source``.
+        point: The new moment point, in {target} coordinates [m].
+    """
+    w = np.asarray(wrench, dtype=float)
+    rot, origin = source_in_target.rotation, source_in_target.translation
+    force = rot @ w[:3]  # f_T = R_TS f_S
+    # moment about the new point: tau_A = R_TS tau_S + (p_S - p_A) x f_T
+    torque = rot @ w[3:] + np.cross(origin - np.asarray(point, dtype=float), force)
+    return np.concatenate([force, torque])
+
+
+def response_from_wrench(wrench: ArrayLike) -> FloatArray:
+    """``(Fx, Fy, Fz, Mx, My)`` from a wire wrench in {H}: ``Fz = -fz`` (eq. 11), mz dropped."""
+    w = np.asarray(wrench, dtype=float)
+    return np.array([w[0], w[1], -w[2], w[3], w[4]])
+
+
+def wrench_from_response(response: ArrayLike, mz: float = 0.0) -> FloatArray:
+    """The wire wrench in {H} for a response vector: ``fz = -Fz``; the model has no ``mz``."""
+    r = np.asarray(response, dtype=float)
+    return np.array([r[0], r[1], -r[2], r[3], r[4], mz])
+
+
+def virtual_wrench(jacobian: ArrayLike, external_torques: ArrayLike, damping: float) -> FloatArray:
+    """The wrench at a frame from the external joint torques: a virtual force/torque sensor.
+
+    With ``tau_ext = J^T w`` (``w`` the wrench the environment exerts on the arm at the frame,
+    ``J`` the frame's (6, n) Jacobian), the damped least-squares solution is
+
+    .. math::
+        w = (J J^T + \\lambda^2 E)^{-1} J \\tau_{ext}
+
+    which is exact away from singularities when ``lambda = 0`` and stays bounded near them.
+    The wrench comes out in the axes the Jacobian uses, with the moment about the frame's origin.
+    """
+    jac = np.asarray(jacobian, dtype=float)
+    tau = np.asarray(external_torques, dtype=float)
+    if jac.ndim != 2 or jac.shape[0] != 6 or tau.shape != (jac.shape[1],):
+        raise InputError(
+            "external_torques", tau.shape, f"{jac.shape[-1]} values, one per joint of the Jacobian"
+        )
+    if not np.isfinite(tau).all():
+        raise InputError("external_torques", tau.tolist(), "finite joint torques [N m]")
+    if not (np.isfinite(damping) and damping >= 0.0):
+        raise ConfigError("virtual_sensor.damping", damping, "a damping >= 0")
+    # w = (J J^T + lambda^2 E)^-1 J tau
+    return np.linalg.solve(jac @ jac.T + damping**2 * np.eye(6), jac @ tau)
