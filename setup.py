@@ -34,6 +34,7 @@ setup(
             "fbcc-sim = fbcc_ros.cli.sim:main",
             "fbcc-montecarlo = fbcc_ros.cli.montecarlo:main",
             "fbcc-kinematics = fbcc_ros.cli.kinematics:main",
+            "fbcc-calibrate = fbcc_ros.cli.calibrate:main",
         ],
     },
 )

@@ -19,6 +19,7 @@ EXECUTABLES = (
     "fbcc-sim",
     "fbcc-montecarlo",
     "fbcc-kinematics",
+    "fbcc-calibrate",
 )
 
 

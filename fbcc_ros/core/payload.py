@@ -193,8 +193,7 @@ def calibrate_static(
     n = rotations.shape[0] if rotations.ndim == 3 else 0
     if rotations.shape != (n, 3, 3) or n < 3 or not np.isfinite(rotations).all():
         raise InputError("rotations", rotations.shape, "(N, 3, 3) finite rotations, N >= 3")
-    motions = [Motion.at_rest(r) for r in rotations]
-    return _fit(motions, wrenches, 4, max_condition, "tilt the sensor about at least two axes")
+    return calibrate([Motion.at_rest(r) for r in rotations], wrenches, False, max_condition)
 
 
 def calibrate_dynamic(
@@ -211,19 +210,23 @@ def calibrate_dynamic(
         wrenches: (N, 6) readings in {S}.
         max_condition: Refuse the fit when the regression's condition number exceeds this.
     """
-    return _fit(
-        motions,
-        wrenches,
-        10,
-        max_condition,
-        "rotate the sensor about every axis with changing angular velocity, and tilt it",
-    )
+    return calibrate(motions, wrenches, True, max_condition)
 
 
-def _fit(
-    motions: list[Motion], wrenches: ArrayLike, n_phi: int, max_condition: float, hint: str
+def calibrate(
+    motions: list[Motion],
+    wrenches: ArrayLike,
+    inertia: bool = False,
+    max_condition: float = MAX_CONDITION,
 ) -> Calibration:
-    """Least squares of the first ``n_phi`` inertial parameters and the six biases."""
+    """Least squares of the inertial parameters (the inertia only if asked) and the six biases,
+    from the sensor's motion and reading at each sample."""
+    n_phi = 10 if inertia else 4
+    hint = (
+        "rotate the sensor about every axis with changing angular velocity, and tilt it"
+        if inertia
+        else "tilt the sensor about at least two axes"
+    )
     readings = np.asarray(wrenches, dtype=float)
     n = len(motions)
     if readings.shape != (n, 6) or n < 3:
@@ -253,17 +256,17 @@ def _fit(
     residual = (a @ x - b).reshape(n, 6)
     mass = float(x[0])
     com = x[1:4] / mass if mass > 0 else np.zeros(3)
-    inertia = np.zeros((3, 3))
-    if n_phi == 10:
+    i_c = np.zeros((3, 3))
+    if inertia:
         ixx, ixy, ixz, iyy, iyz, izz = x[4:10]
         i_o = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
         # parallel axes: I_c = I_o - m (|c|^2 E - c c^T)
-        inertia = i_o - mass * (com @ com * np.eye(3) - np.outer(com, com))
+        i_c = i_o - mass * (com @ com * np.eye(3) - np.outer(com, com))
         # a noisy fit of a nearly point-like payload may come out slightly indefinite
-        vals, vecs = np.linalg.eigh(inertia)
-        inertia = (vecs * np.maximum(vals, 0.0)) @ vecs.T
+        vals, vecs = np.linalg.eigh(i_c)
+        i_c = (vecs * np.maximum(vals, 0.0)) @ vecs.T
     return Calibration(
-        Payload(max(mass, 0.0), tuple(com.tolist()), tuple(map(tuple, inertia.tolist()))),
+        Payload(max(mass, 0.0), tuple(com.tolist()), tuple(map(tuple, i_c.tolist()))),
         x[n_phi:],
         (
             float(np.sqrt(np.mean(residual[:, :3] ** 2))),
