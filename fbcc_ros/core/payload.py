@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.spatial import cross, skew
 
 FloatArray = NDArray[np.float64]
 
@@ -100,11 +101,11 @@ def payload_wrench(payload: Payload, motion: Motion) -> FloatArray:
     inertia = np.asarray(payload.inertia, dtype=float)
     w, dw = motion.angular_velocity, motion.angular_acceleration
     # a_c = a_o + dw x c + w x (w x c)
-    a_c = motion.linear_acceleration + np.cross(dw, c) + np.cross(w, np.cross(w, c))
+    a_c = motion.linear_acceleration + cross(dw, c) + cross(w, cross(w, c))
     # F = m (g - a_c)
     force = payload.mass * (motion.gravity - a_c)
     # tau = c x F - (I_c dw + w x I_c w)
-    torque = np.cross(c, force) - (inertia @ dw + np.cross(w, inertia @ w))
+    torque = cross(c, force) - (inertia @ dw + cross(w, inertia @ w))
     return np.concatenate([force, torque])
 
 
@@ -159,11 +160,11 @@ def regressor(motion: Motion) -> FloatArray:
     """
     g_a = motion.gravity - motion.linear_acceleration
     w, dw = motion.angular_velocity, motion.angular_acceleration
-    w_x = _skew(w)
+    w_x = skew(w)
     y = np.zeros((6, 10))
     y[:3, 0] = g_a
-    y[:3, 1:4] = -(_skew(dw) + w_x @ w_x)
-    y[3:, 1:4] = -_skew(g_a)
+    y[:3, 1:4] = -(skew(dw) + w_x @ w_x)
+    y[3:, 1:4] = -skew(g_a)
     y[3:, 4:] = -(_inertia_map(dw) + w_x @ _inertia_map(w))
     return y
 
@@ -275,12 +276,3 @@ def calibrate(
         condition,
         n,
     )
-
-
-def _skew(v: FloatArray) -> FloatArray:
-    """Cross-product matrices of the rows of v, (N, 3, 3): ``_skew(v) @ u = v x u``."""
-    out = np.zeros((*v.shape[:-1], 3, 3))
-    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
-    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
-    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
-    return out

@@ -16,6 +16,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.spatial import cross
 
 FloatArray = NDArray[np.float64]
 
@@ -34,7 +35,7 @@ def transfer(
     rot, origin = source_in_target.rotation, source_in_target.translation
     force = rot @ w[:3]  # f_T = R_TS f_S
     # moment about the new point: tau_A = R_TS tau_S + (p_S - p_A) x f_T
-    torque = rot @ w[3:] + np.cross(origin - np.asarray(point, dtype=float), force)
+    torque = rot @ w[3:] + cross(origin - np.asarray(point, dtype=float), force)
     return np.concatenate([force, torque])
 
 
