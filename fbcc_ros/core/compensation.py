@@ -290,7 +290,7 @@ def calibration_yaml(fit: Calibration, comment: str) -> str:
         }
     }
     header = "".join(f"# {line}\n" for line in comment.splitlines())
-    return header + yaml.safe_dump(params, sort_keys=False)
+    return header + yaml.safe_dump(params, sort_keys=False, default_flow_style=None)
 
 
 def load_calibration(path: str | Path) -> tuple[Payload, FloatArray]:
