@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from fbcc_ros.core.compensation import SENSOR_FRAME, calibration_yaml
+from fbcc_ros.core.compensation import SENSOR_FRAME, calibration_yaml, sensor_motion
 from fbcc_ros.core.errors import FbccError, InputError
 from fbcc_ros.core.kinematics import ROBOTS, RobotModel, pose
 from fbcc_ros.core.payload import (
@@ -112,18 +112,7 @@ def motions_from_data(
         raise InputError("data.t", "not increasing", "strictly increasing sample times [s]")
     dq = _take(columns, [f"v_{j}" for j in robot.joint_names])
     ddq = np.gradient(dq, t, axis=0)  # central differences of the joint velocities
-    motions = []
-    for qi, dqi, ddqi in zip(q, dq, ddq, strict=True):
-        placement, velocity, accel = robot.frame_motion(qi, dqi, ddqi, SENSOR_FRAME)
-        motions.append(
-            Motion(
-                placement.rotation.T @ GRAVITY_BASE,
-                np.array(accel.linear),
-                np.array(velocity.angular),
-                np.array(accel.angular),
-            )
-        )
-    return motions
+    return [sensor_motion(robot, *state)[1] for state in zip(q, dq, ddq, strict=True)]
 
 
 def _plot(fit: Calibration, motions: list[Motion], wrenches: np.ndarray, path: Path) -> None:

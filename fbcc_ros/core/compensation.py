@@ -256,15 +256,21 @@ class Compensator:
             return self._static
         if self._joints is None or self.robot is None:
             return None
-        _, q, dq, ddq = self._joints
-        placement, velocity, accel = self.robot.frame_motion(q, dq, ddq, SENSOR_FRAME)
-        motion = Motion(
-            placement.rotation.T @ GRAVITY_BASE,
-            np.array(accel.linear),
-            np.array(velocity.angular),
-            np.array(accel.angular),
-        )
+        placement, motion = sensor_motion(self.robot, *self._joints[1:])
         return self._hole_from_base * placement, motion
+
+
+def sensor_motion(
+    robot: RobotModel, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike, frame: str = SENSOR_FRAME
+) -> tuple[pin.SE3, Motion]:
+    """A robot-mounted sensor's pose ``T_base_S`` and its :class:`Motion` in {S}."""
+    placement, velocity, accel = robot.frame_motion(q, dq, ddq, frame)
+    return placement, Motion(
+        placement.rotation.T @ GRAVITY_BASE,
+        np.array(accel.linear),
+        np.array(velocity.angular),
+        np.array(accel.angular),
+    )
 
 
 def _finite(field: str, value: ArrayLike, size: int) -> FloatArray:
