@@ -81,6 +81,10 @@ class SensorSetup:
         acceleration_lowpass_hz: Cut-off of the low-pass on the joint accelerations that are
             differentiated from the joint velocities, for the payload's inertial terms [Hz].
         virtual_damping: lambda of the virtual sensor's damped pseudo-inverse.
+        tare_samples: When > 0, the first this many accepted readings are not output but
+            averaged into the bias, ``b = mean(reading - payload wrench)``: the usual way to
+            zero a sensor under the hole (whose weight and bias a static fit cannot tell apart)
+            before an insertion. The peg must not touch the hole meanwhile.
     """
 
     placement: Placement = "under_hole"
@@ -94,6 +98,7 @@ class SensorSetup:
     deadband: tuple[float, float] = (0.0, 0.0)
     acceleration_lowpass_hz: float = 10.0
     virtual_damping: float = 0.01
+    tare_samples: int = 0
 
     def __post_init__(self) -> None:
         if self.placement not in PLACEMENTS:
@@ -111,6 +116,10 @@ class SensorSetup:
                 raise ConfigError(field, placement, "a finite rigid transform")
         if not (math.isfinite(self.virtual_damping) and self.virtual_damping >= 0.0):
             raise ConfigError("virtual_sensor.damping", self.virtual_damping, "a damping >= 0")
+        if isinstance(self.tare_samples, bool) or not (
+            isinstance(self.tare_samples, int) and self.tare_samples >= 0
+        ):
+            raise ConfigError("tare_samples", self.tare_samples, "an integer >= 0 (0: off)")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -146,7 +155,9 @@ class Compensator:
             "out_of_order": 0,
             "no_joint_state": 0,
             "joint_state_rejected": 0,
+            "taring": 0,
         }
+        self._tare: list[FloatArray] = []
         self._acting_point = np.asarray(setup.acting_point, dtype=float)
         self._bias = np.asarray(setup.bias, dtype=float)
         self._band = np.repeat(np.asarray(setup.deadband, dtype=float), 3)
@@ -236,6 +247,9 @@ class Compensator:
             self.counts["no_joint_state"] += 1
             return None
         sensor_in_hole, motion = state
+        if len(self._tare) < self.setup.tare_samples:
+            self._add_tare(stamp, wrench, motion)
+            return None
         try:
             contact = compensate(wrench, self.setup.payload, motion, self._bias)
         except InputError:
@@ -249,6 +263,22 @@ class Compensator:
         self._last_stamp = stamp
         self.counts["accepted"] += 1
         return Compensated(stamp, out, response_from_wrench(out))
+
+    def _add_tare(self, stamp: float, wrench: ArrayLike, motion: Motion) -> None:
+        try:  # the payload alone: the reading with a zero bias
+            self._tare.append(compensate(wrench, self.setup.payload, motion, np.zeros(6)))
+        except InputError:
+            self.counts["non_finite"] += 1
+            return
+        self._last_stamp = stamp
+        self.counts["taring"] += 1
+        if len(self._tare) == self.setup.tare_samples:
+            self._bias = np.mean(self._tare, axis=0)  # b = mean(reading - payload wrench)
+
+    @property
+    def bias(self) -> FloatArray:
+        """The bias in use (configured, or measured by the tare)."""
+        return self._bias.copy()
 
     def _sensor_state(self) -> tuple[pin.SE3, Motion] | None:
         """``T_H_S`` and the sensor's motion in {S}, from the latest joint state if it moves."""

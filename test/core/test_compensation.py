@@ -221,7 +221,24 @@ def test_rejected_samples_are_counted_not_propagated() -> None:
         "out_of_order": 2,
         "no_joint_state": 0,
         "joint_state_rejected": 0,
+        "taring": 0,
     }
+
+
+def test_tare_measures_the_bias_before_contact() -> None:
+    """A sensor under the hole, tared on 20 readings without contact: the fixture's weight and
+    the bias are measured together, and the contact afterwards comes out exactly."""
+    rng = np.random.default_rng(1)
+    setup = SensorSetup(pose=pose(ACTING), acting_point=tuple(ACTING), tare_samples=20)
+    comp = Compensator(setup)
+    at_rest = np.array([0, 0, -2 * G, 0, 0, 0]) + BIAS
+    for k in range(20):
+        assert comp.reading(k * 1e-3, "ft_sensor", at_rest + rng.normal(0, 1e-3, 6)) is None
+    assert comp.counts["taring"] == 20
+    np.testing.assert_allclose(comp.bias, at_rest, atol=1e-3)
+    out = comp.reading(0.1, "ft_sensor", at_rest + EXPECTED_WIRE)
+    assert out is not None
+    np.testing.assert_allclose(out.wrench, EXPECTED_WIRE, atol=1e-3)
 
 
 def test_frame_mismatch_names_both_frames() -> None:

@@ -1,0 +1,138 @@
+"""The hardware-free cell: a position-controlled arm and a force/torque sensor under the true hole.
+
+This is the plant of :mod:`fbcc_ros.core.simulation` in joint space, for the mock nodes:
+
+* **the hole** is where the cell's configuration says (``hole_in_base``, what the controller
+  believes) displaced by the scenario's unknown deviation ``x_dev``: the true hole is placed so
+  that a peg at the believed features 0 has the true features ``x_dev``,
+  ``T_base_Htrue = T_base_H P(0) P(x_dev)^-1`` with ``P(x)`` the peg pose of features x;
+* **the arm** follows its joint command with the first-order lag of the scenario
+  (``q += (1 - exp(-dt/tau)) (q_cmd - q)``), clipped to its position and velocity limits;
+* **the contact** is the analytic model with the true geometry (it may differ from the nominal
+  one the controller knows: Table II tolerances);
+* **the sensor** sits under the true hole at its acting point, axes as the hole's, and carries a
+  fixture; it reads the contact wrench, the fixture's weight, the bias and white noise (the
+  scenario's ``sensor`` values, given in response space).
+
+The true features and responses of every step are returned so that a run can be scored exactly
+as the simulator scores it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import ArrayLike, NDArray
+
+from fbcc_ros.core.compensation import acting_point_of
+from fbcc_ros.core.contact import PegHole
+from fbcc_ros.core.errors import InputError
+from fbcc_ros.core.features import pose_from_features
+from fbcc_ros.core.kinematics import CellKinematics, RobotModel, solve_ik
+from fbcc_ros.core.payload import Motion, Payload, payload_wrench
+from fbcc_ros.core.scenario import Scenario
+from fbcc_ros.core.wrench import transfer, wrench_from_response
+
+FloatArray = NDArray[np.float64]
+
+#: The hole fixture on the mock sensor: 1.5 kg, its centre of mass 2 cm above the sensor.
+DEFAULT_FIXTURE = Payload(1.5, (0.0, 0.0, 0.02))
+
+
+@dataclasses.dataclass(frozen=True)
+class CellSample:
+    """One step of the cell: joints, the raw sensor reading in {S}, and the truth.
+
+    Attributes:
+        q, dq: Joint positions [rad] and velocities [rad/s].
+        raw: The sensor's reading ``(fx, fy, fz, tx, ty, tz)`` in {S} [N, N m].
+        features: True features (depth clipped at 0 for the contact).
+        response: True response (Fx, Fy, Fz, Mx, My) at the true hole's acting point.
+    """
+
+    q: FloatArray
+    dq: FloatArray
+    raw: FloatArray
+    features: FloatArray
+    response: FloatArray
+
+
+def _peg_pose(features: ArrayLike, peg_radius: float) -> pin.SE3:
+    rotation, position = pose_from_features(features, peg_radius)
+    return pin.SE3(rotation, position)
+
+
+class MockCell:
+    """The plant, stepped by the mock nodes; see the module doc.
+
+    Args:
+        sc: Scenario: deviation, noise, bias, robot lag, nominal geometry.
+        robot: The arm.
+        hole_in_base: Where the controller believes the hole is, ``T_base_H``.
+        geometry: True geometry of the pair (default: the scenario's nominal one).
+        fixture: What the sensor under the hole carries.
+        seed: Of the sensor noise (default: the scenario's).
+    """
+
+    def __init__(
+        self,
+        sc: Scenario,
+        robot: RobotModel,
+        hole_in_base: pin.SE3,
+        geometry: PegHole | None = None,
+        fixture: Payload = DEFAULT_FIXTURE,
+        seed: int | None = None,
+    ) -> None:
+        self.sc = sc
+        self.robot = robot
+        self.geometry = geometry or sc.geometry
+        r = sc.geometry.peg_radius
+        self.believed = CellKinematics(robot, hole_in_base, r)
+        deviation = sc.initial.copy()
+        deviation[2] = 0.0
+        true_hole = hole_in_base * _peg_pose(np.zeros(5), r) * _peg_pose(deviation, r).inverse()
+        self.truth = CellKinematics(robot, true_hole, self.geometry.peg_radius)
+        # the arm starts with the peg at the believed features 0: over the hole, tip at its top
+        self.q = solve_ik(robot, self.believed.peg_target(np.zeros(5), 0.0), robot.home).q
+        self.q_cmd = self.q.copy()
+        self.fixture = fixture
+        self._acting = pin.SE3(np.eye(3), acting_point_of(self.geometry))
+        self.sensor_in_hole = self._acting  # at the acting point, axes as the true hole's
+        self._weight = payload_wrench(fixture, Motion.at_rest(true_hole.rotation))
+        self._bias = wrench_from_response(sc.bias)
+        self._noise = np.append(sc.noise, 0.0)  # no noise figure for mz
+        self._rng = np.random.default_rng(sc.seed if seed is None else seed)
+        self._alpha: dict[float, float] = {}
+
+    def command(self, q_cmd: ArrayLike) -> None:
+        """A new joint position command; refused (InputError) if malformed or beyond a limit."""
+        q = self.robot.check_joints(q_cmd, "joint_command")
+        if not self.robot.within_limits(q):
+            raise InputError(
+                "joint_command", q.tolist(), f"positions within the limits of {self.robot.name}"
+            )
+        self.q_cmd = q
+
+    def step(self, dt: float) -> CellSample:
+        """Advance the arm by dt [s] toward its command and read the sensor."""
+        alpha = self._alpha.get(dt)
+        if alpha is None:
+            lag = self.sc.lag
+            alpha = self._alpha[dt] = 1.0 - math.exp(-dt / lag) if lag > 0 else 1.0
+        q_prev = self.q
+        # q += (1 - exp(-dt/tau)) (q_cmd - q), within the velocity and position limits
+        step = np.clip(alpha * (self.q_cmd - q_prev), -self.robot.velocity_limit * dt,
+                       self.robot.velocity_limit * dt)  # fmt: skip
+        self.q = np.clip(q_prev + step, self.robot.lower, self.robot.upper)
+        x = self.truth.features(self.q)
+        x[2] = max(x[2], 0.0)  # above the hole: no contact
+        response = self.geometry.response(x)
+        # the peg's wrench on the hole at the acting point, read in {S}: T_S_A = T_S_H T_H_A
+        sensor_from_acting = self.sensor_in_hole.actInv(self._acting)
+        contact = transfer(wrench_from_response(response), sensor_from_acting)
+        noise = self._noise * self._rng.standard_normal(6)
+        raw = contact + self._weight + self._bias + noise
+        return CellSample(self.q.copy(), (self.q - q_prev) / dt, raw, x, response)

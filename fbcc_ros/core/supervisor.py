@@ -1,0 +1,143 @@
+"""The controller's phases and safety: what the fbcc_controller node runs, without ROS.
+
+Phases: ``idle`` (nothing commanded) → ``start()`` → ``inserting`` → ``inserted`` (the depth
+ramp reached L; the law keeps adjusting) ; ``force_limit`` (Algorithm 1's stop), ``aborted``
+(``abort()``) and ``fault`` end an insertion and hold the last command.
+
+A fault holds the last command and records why:
+
+* non-finite features or response;
+* stale input: no features or no compensated wrench for longer than ``timeout`` (checked on
+  every wrench and by :meth:`Supervisor.watchdog`);
+* the kinematics could not reach a command (:meth:`Supervisor.fault`, from the node).
+
+Every command moves at most ``max_step`` (offsets and depth, [m]) and ``max_step_angle``
+(tilts, [rad]) from the previous one, whatever the law asks.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from fbcc_ros.core.control import ComplianceLaw
+from fbcc_ros.core.errors import ConfigError
+
+FloatArray = NDArray[np.float64]
+
+PHASES = ("idle", "inserting", "inserted", "force_limit", "aborted", "fault")
+ACTIVE = ("inserting", "inserted")
+
+
+@dataclasses.dataclass(frozen=True)
+class SafetyLimits:
+    """Attributes:
+    timeout: Longest gap between features or wrenches before a fault [s].
+    max_step: Largest change of dx, dy or l per command [m].
+    max_step_angle: Largest change of theta_x or theta_y per command [rad].
+    """
+
+    timeout: float = 0.05
+    max_step: float = 5e-5
+    max_step_angle: float = 1e-3
+
+    def __post_init__(self) -> None:
+        for name in ("timeout", "max_step", "max_step_angle"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ConfigError(name, value, "a finite number > 0 (s, m, rad)")
+
+
+class Supervisor:
+    """Runs one law with phases and safety checks.
+
+    Args:
+        law: The compliance law (FBCC, admittance or none).
+        dt: The control period the law is discretised for [s].
+        limits: Timeouts and step limits.
+    """
+
+    def __init__(self, law: ComplianceLaw, dt: float, limits: SafetyLimits) -> None:
+        self.law = law
+        self.dt = dt
+        self.limits = limits
+        self.phase = "idle"
+        self.reason = ""
+        self.command: FloatArray | None = None
+        self.features: FloatArray | None = None
+        self._t_features = -math.inf
+        self._t_wrench = -math.inf
+        self._max_step = np.array([limits.max_step] * 3 + [limits.max_step_angle] * 2)
+
+    @property
+    def active(self) -> bool:
+        return self.phase in ACTIVE
+
+    def fault(self, reason: str) -> None:
+        """Stop and hold the last command, saying why."""
+        if self.active or self.phase == "idle":
+            self.phase, self.reason = "fault", reason
+
+    def on_features(self, now: float, features: ArrayLike) -> None:
+        x = np.asarray(features, dtype=float)
+        if x.shape != (5,) or not np.isfinite(x).all():
+            self.fault(f"non-finite or malformed features {x.tolist()}")
+            return
+        self.features, self._t_features = x, now
+
+    def start(self, now: float) -> tuple[bool, str]:
+        """Begin an insertion from the current features."""
+        if self.active:
+            return False, f"already {self.phase}"
+        if self.features is None or now - self._t_features > self.limits.timeout:
+            return False, "no recent features: is the kinematics node running?"
+        self.law.reset(self.features)
+        self.command = self.features.copy()
+        self.phase, self.reason = "inserting", ""
+        self._t_wrench = now
+        return True, "insertion started"
+
+    def abort(self, reason: str = "abort requested") -> tuple[bool, str]:
+        if not self.active:
+            return False, f"nothing to abort: {self.phase}"
+        self.phase, self.reason = "aborted", reason
+        return True, "aborted; the last command is held"
+
+    def watchdog(self, now: float) -> None:
+        """Faults on stale input while an insertion runs."""
+        if not self.active:
+            return
+        for name, t in (("compensated wrench", self._t_wrench), ("features", self._t_features)):
+            if now - t > self.limits.timeout:
+                self.fault(
+                    f"stale {name}: none for {now - t:.3f} s (timeout {self.limits.timeout} s)"
+                )
+
+    def on_response(self, now: float, response: ArrayLike) -> FloatArray | None:
+        """One control period on a compensated response; returns the command to publish (the
+        held one outside an insertion, None before the first)."""
+        w = np.asarray(response, dtype=float)
+        if not self.active:
+            return self.command
+        if w.shape != (5,) or not np.isfinite(w).all():
+            self.fault(f"non-finite or malformed response {w.tolist()}")
+            return self.command
+        self._t_wrench = now
+        self.watchdog(now)
+        if not self.active or self.features is None or self.command is None:
+            return self.command
+        x_c = self.law.step(w, self.features[2], self.dt)
+        if self.law.phase[0] == "force_limit":
+            self.phase = "force_limit"
+            self.reason = (
+                f"|F| = {np.linalg.norm(w[:3]):.1f} N over the limit "
+                f"{self.law.params.F_ext_limit} N"
+            )
+        elif self.law.phase[0] == "inserted":
+            self.phase = "inserted"
+        # at most max_step per command, whatever the law asks
+        self.command = self.command + np.clip(x_c - self.command, -self._max_step, self._max_step)
+        return self.command

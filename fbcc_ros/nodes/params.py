@@ -1,0 +1,99 @@
+"""Parameter tables: each node declares its parameters from one table (name, default, unit,
+description, range, read_only) with rclpy's descriptors, which rclpy enforces on declare and on
+set; values are then validated once more by the core's dataclasses (cross-field checks)."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from rcl_interfaces.msg import (
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    SetParametersResult,
+)
+from rclpy.node import Node
+
+from fbcc_ros.core.errors import FbccError
+
+
+@dataclasses.dataclass(frozen=True)
+class Param:
+    """One parameter: ``name`` as in the YAML (dots for nesting), its default, unit and meaning.
+
+    ``low``/``high`` bound a number (rclpy refuses values outside); ``choices`` a string.
+    """
+
+    name: str
+    default: Any
+    description: str
+    unit: str = ""
+    low: float | None = None
+    high: float | None = None
+    read_only: bool = True
+    choices: tuple[str, ...] = ()
+
+    def descriptor(self) -> ParameterDescriptor:
+        unit = f" [{self.unit}]" if self.unit else ""
+        choices = f" (one of {', '.join(self.choices)})" if self.choices else ""
+        desc = ParameterDescriptor(
+            description=f"{self.description}{unit}{choices}", read_only=self.read_only
+        )
+        if self.low is not None and self.high is not None:
+            if isinstance(self.default, int) and not isinstance(self.default, bool):
+                desc.integer_range = [
+                    IntegerRange(from_value=int(self.low), to_value=int(self.high), step=1)
+                ]
+            elif isinstance(self.default, float):
+                desc.floating_point_range = [
+                    FloatingPointRange(from_value=self.low, to_value=self.high, step=0.0)
+                ]
+        return desc
+
+
+def declare(
+    node: Node,
+    table: Sequence[Param],
+    apply: Callable[[dict[str, Any]], None] | None = None,
+) -> dict[str, Any]:
+    """Declares the table's parameters and returns their values by name.
+
+    Start-up values outside a range or a choice raise (rclpy's exception or
+    :class:`~fbcc_ros.core.errors.ConfigError`). With ``apply``, a runtime change of a
+    writable parameter is passed to it with all current values; if it raises an FbccError the
+    change is refused with the reason.
+    """
+    values: dict[str, Any] = {}
+    for p in table:
+        values[p.name] = node.declare_parameter(p.name, p.default, p.descriptor()).value
+        _check_choice(p, values[p.name])
+    by_name = {p.name: p for p in table}
+
+    def on_set(changes: list[Any]) -> SetParametersResult:
+        merged = dict(values)
+        for change in changes:
+            if change.name in by_name:
+                try:
+                    _check_choice(by_name[change.name], change.value)
+                except FbccError as exc:
+                    return SetParametersResult(successful=False, reason=str(exc))
+                merged[change.name] = change.value
+        if apply is not None:
+            try:
+                apply(merged)
+            except FbccError as exc:
+                return SetParametersResult(successful=False, reason=str(exc))
+        values.update(merged)
+        return SetParametersResult(successful=True)
+
+    node.add_on_set_parameters_callback(on_set)
+    return values
+
+
+def _check_choice(p: Param, value: Any) -> None:
+    from fbcc_ros.core.errors import ConfigError
+
+    if p.choices and value not in p.choices:
+        raise ConfigError(p.name, value, f"one of {list(p.choices)}")

@@ -1,0 +1,139 @@
+"""The controller's phases and safety (fbcc_ros.core.supervisor), and the mock cell's plant
+(fbcc_ros.core.cell) against the pure simulator."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fbcc_ros.cli.common import paper_scenario
+from fbcc_ros.core import scenario
+from fbcc_ros.core.cell import MockCell
+from fbcc_ros.core.compensation import Compensator, SensorSetup
+from fbcc_ros.core.control import make_law
+from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.kinematics import RobotModel, aligned_hole_at
+from fbcc_ros.core.simulation import simulate
+from fbcc_ros.core.supervisor import SafetyLimits, Supervisor
+
+DT = 1e-3
+
+
+def _supervisor(law: str = "fbcc", **limits: float) -> Supervisor:
+    sc = scenario.validate(paper_scenario("interference", law))
+    return Supervisor(make_law(law, sc.geometry, sc.params, sc.insertion), DT,
+                      SafetyLimits(**limits))  # fmt: skip
+
+
+def test_idle_until_started_then_inserting() -> None:
+    sup = _supervisor()
+    assert sup.on_response(0.0, np.zeros(5)) is None and sup.phase == "idle"
+    assert sup.start(0.0) == (False, "no recent features: is the kinematics node running?")
+    sup.on_features(0.0, np.zeros(5))
+    ok, _ = sup.start(0.0)
+    assert ok and sup.phase == "inserting"
+    command = sup.on_response(0.001, np.zeros(5))
+    assert command is not None and command[2] == pytest.approx(5e-3 * DT)  # the depth ramp
+
+
+@pytest.mark.parametrize(
+    ("event", "reason"),
+    [
+        (lambda s: s.on_response(0.001, [0, 0, math.nan, 0, 0]), "non-finite or malformed resp"),
+        (lambda s: s.on_features(0.001, [0, 0, math.inf, 0, 0]), "non-finite or malformed feat"),
+        (lambda s: s.watchdog(0.2), "stale compensated wrench: none for 0.200 s"),
+        (lambda s: s.fault("IK failed: out of reach"), "IK failed"),
+    ],
+)
+def test_faults_hold_the_last_command_and_say_why(event, reason) -> None:
+    sup = _supervisor()
+    sup.on_features(0.0, np.zeros(5))
+    sup.start(0.0)
+    held = sup.on_response(0.0005, np.zeros(5))
+    event(sup)
+    assert sup.phase == "fault" and reason in sup.reason
+    np.testing.assert_array_equal(sup.on_response(0.002, np.ones(5)), held)
+
+
+def test_stale_features_fault_on_the_next_wrench() -> None:
+    sup = _supervisor(timeout=0.01)
+    sup.on_features(0.0, np.zeros(5))
+    sup.start(0.0)
+    sup.on_response(0.02, np.zeros(5))
+    assert sup.phase == "fault" and "stale features" in sup.reason
+
+
+def test_force_limit_and_abort() -> None:
+    sup = _supervisor()
+    sup.on_features(0.0, np.zeros(5))
+    sup.start(0.0)
+    sup.on_response(0.001, [0, 0, 400.0, 0, 0])
+    assert sup.phase == "force_limit" and "over the limit 300.0 N" in sup.reason
+    assert sup.abort() == (False, "nothing to abort: force_limit")
+    sup2 = _supervisor()
+    sup2.on_features(0.0, np.zeros(5))
+    sup2.start(0.0)
+    assert sup2.abort()[0] and sup2.phase == "aborted"
+
+
+def test_a_command_never_jumps_more_than_the_step_limit() -> None:
+    sup = _supervisor("admittance", max_step=1e-6, max_step_angle=1e-5)
+    sup.on_features(0.0, np.zeros(5))
+    sup.start(0.0)
+    previous = np.zeros(5)
+    for k in range(1, 50):  # a large lateral force: admittance wants a big displacement at once
+        command = sup.on_response(k * DT, [50.0, -50.0, 10.0, 1.0, -1.0])
+        assert np.all(np.abs(command[:3] - previous[:3]) <= 1e-6 + 1e-15)
+        assert np.all(np.abs(command[3:] - previous[3:]) <= 1e-5 + 1e-15)
+        previous = command
+
+
+def test_bad_limits() -> None:
+    with pytest.raises(ConfigError, match="timeout"):
+        SafetyLimits(timeout=0.0)
+
+
+def test_mock_cell_loop_agrees_with_the_simulator() -> None:
+    """The joint-space plant (true hole displaced in SE(3), exact features, IK each step, a
+    sensor under the hole with fixture and bias, tared by the compensation) against the
+    feature-space simulator on Fig. 9's interference case, same law and noise level."""
+    sc = scenario.load("config/scenarios/fig9_interference.yaml").with_law("fbcc")
+    outcome, _ = simulate(sc, "fbcc", record=False)
+    robot = RobotModel.from_name("iiwa14")
+    hole = aligned_hole_at(robot.peg_in_base(robot.home))
+    cell = MockCell(sc, robot, hole)
+    comp = Compensator(
+        SensorSetup(pose=cell.sensor_in_hole, acting_point=tuple(cell.sensor_in_hole.translation),
+                    hole_in_base=hole, tare_samples=50)
+    )  # fmt: skip
+    sup = Supervisor(make_law("fbcc", sc.geometry, sc.params, sc.insertion), DT, SafetyLimits())
+    peak_fz = 0.0
+    q = cell.q
+    for k in range(sc.steps + 50):
+        sample = cell.step(DT)
+        t = k * DT
+        sup.on_features(t, cell.believed.features(sample.q))
+        out = comp.reading(t, "ft_sensor", sample.raw)
+        if out is None:
+            continue  # taring
+        if sup.phase == "idle":
+            sup.start(t)
+        command = sup.on_response(t, out.response)
+        q = cell.believed.tcp_solution(command, q, DT).q
+        cell.command(q)
+        peak_fz = max(peak_fz, float(sample.response[2]))
+    final = sample.features
+    expected = outcome.final_features[0]
+    # Lateral features: the same end state.
+    np.testing.assert_allclose(final[[0, 1]], expected[[0, 1]], atol=2e-5)  # offsets [m]
+    np.testing.assert_allclose(final[[3, 4]], expected[[3, 4]], atol=2e-3)  # tilts [rad]
+    # Depth: the simulator's plant is x = p + x_dev, first order in the tilts. Here the hole is
+    # really tilted by theta0 = 2°, and the ramp's L is reached in the believed frame: the peg
+    # ends 2 r sin(theta0) (0.35 mm) short of the true depth, which the first-order plant cannot
+    # show (docs/nodes.md).
+    shortfall = 2 * sc.geometry.peg_radius * math.sin(abs(sc.initial[4]))
+    assert expected[2] - final[2] == pytest.approx(shortfall, abs=2e-5)
+    # peak Fz: 68.5 N here against 62.9 N simulated (the tilted hole, IK, one-step delays)
+    assert peak_fz == pytest.approx(outcome.peak_fz[0], rel=0.15)
