@@ -35,6 +35,11 @@ setup(
             "fbcc-montecarlo = fbcc_ros.cli.montecarlo:main",
             "fbcc-kinematics = fbcc_ros.cli.kinematics:main",
             "fbcc-calibrate = fbcc_ros.cli.calibrate:main",
+            "fbcc_bringup = fbcc_ros.nodes.bringup:main",
+            "dynamic_compensation = fbcc_ros.nodes.dynamic_compensation:main",
+            "kinematics = fbcc_ros.nodes.kinematics:main",
+            "fbcc_controller = fbcc_ros.nodes.fbcc_controller:main",
+            "mock_cell = fbcc_ros.nodes.mock_cell:main",
         ],
     },
 )

@@ -1,13 +1,17 @@
 #!/usr/bin/env bash
 # Install everything, then run the main job: the hardware-free assembly demo.
-# For now (issues 3-4): the paper's Fig. 9 comparison, FBCC against admittance, simulated in
-# closed loop for both fits; the iiwa's TCP solution following the FBCC run; and the state maps of
-# Fig. 5 and 6. Everything is written to out/demo/.
-# The ROS 2 bringup replaces the simulator here with the nodes issue.
+# First the ROS 2 cell: mock arm and sensor, dynamic compensation, kinematics and the FBCC
+# controller as nodes over DDS perform one assembly (fbcc_bringup; exit status 1 if it fails).
+# Then the paper's Fig. 9 comparison, FBCC against admittance, simulated for both fits; the
+# iiwa's TCP solution following the FBCC run; and the state maps of Fig. 5 and 6.
+# Everything is written to out/demo/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/bootstrap.sh
 out="${1:-out/demo}"
+export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST}"
+.venv/bin/python -m fbcc_ros.nodes.bringup config/scenarios/bringup_interference.yaml \
+    --out "$out/bringup"
 for fit in clearance interference; do
     .venv/bin/python -m fbcc_ros.cli.sim "config/scenarios/fig9_${fit}.yaml" --out "$out/fig9_${fit}"
 done

@@ -20,6 +20,11 @@ EXECUTABLES = (
     "fbcc-montecarlo",
     "fbcc-kinematics",
     "fbcc-calibrate",
+    "fbcc_bringup",
+    "dynamic_compensation",
+    "kinematics",
+    "fbcc_controller",
+    "mock_cell",
 )
 
 

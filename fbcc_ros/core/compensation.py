@@ -264,6 +264,14 @@ class Compensator:
         self.counts["accepted"] += 1
         return Compensated(stamp, out, response_from_wrench(out))
 
+    def set_filters(self, lowpass_hz: float, deadband: ArrayLike) -> None:
+        """Changes the output filters at runtime (the low-pass restarts from the next sample)."""
+        band = _finite("deadband", deadband, 2)
+        if (band < 0).any():
+            raise ConfigError("deadband", deadband, "[force N, moment N m], both >= 0")
+        self._lowpass = LowPass(lowpass_hz)
+        self._band = np.repeat(band, 3)
+
     def _add_tare(self, stamp: float, wrench: ArrayLike, motion: Motion) -> None:
         try:  # the payload alone: the reading with a zero bias
             self._tare.append(compensate(wrench, self.setup.payload, motion, np.zeros(6)))

@@ -114,16 +114,17 @@ class Outcome:
 class _Metrics:
     """Accumulates the metrics chunk by chunk over a batch of N trials."""
 
-    def __init__(self, sc: Scenario, initial: FloatArray) -> None:
+    def __init__(self, sc: Scenario, initial: FloatArray, steps: int | None = None) -> None:
         n = len(initial)
         self.sc = sc
+        self.steps = sc.steps if steps is None else steps
         self.theta0 = initial[:, 3:5]
         self.peak_fz = np.zeros(n)
         self.peak_force = np.zeros(n)
         self.theta_max = initial[:, 3:5].copy()
         self.theta_min = initial[:, 3:5].copy()
         self.last_outside = np.zeros(n)  # time of the last step not assembled
-        self.resid_from = sc.steps - max(1, round(RESIDUAL_WINDOW * sc.steps))
+        self.resid_from = self.steps - max(1, round(RESIDUAL_WINDOW * self.steps))
         self.resid_f = np.zeros(n)
         self.resid_m = np.zeros(n)
         self.final = initial.copy()
@@ -150,7 +151,7 @@ class _Metrics:
         self.assembled_at_end = assembled[-1]
 
     def outcome(self, force_limited: np.ndarray) -> Outcome:
-        n_tail = self.sc.steps - self.resid_from
+        n_tail = self.steps - self.resid_from
         sign0 = np.sign(self.theta0)
         # past zero, opposite to the initial sign; any excursion when the initial tilt is zero
         either = np.maximum(self.theta_max, -self.theta_min)
@@ -228,6 +229,16 @@ def simulate(
         return outcome, None
     traj = Trajectory(*(np.concatenate([c[i] for c in chunks]) for i in range(5)))
     return outcome, traj
+
+
+def score(
+    sc: Scenario, t: FloatArray, features: FloatArray, responses: FloatArray, force_limited: bool
+) -> Outcome:
+    """The metrics of one recorded run (true features and responses (T, 5) at times (T,)), as
+    :func:`simulate` scores its own trials: for runs of the ROS cell."""
+    metrics = _Metrics(sc, np.atleast_2d(features[0]), steps=len(t))
+    metrics.add(0, np.asarray(t, dtype=float), features[:, None, :], responses[:, None, :])
+    return metrics.outcome(np.array([force_limited]))
 
 
 def state_sequence(traj: Trajectory, peghole: PegHole, trial: int = 0) -> list[dict[str, Any]]:

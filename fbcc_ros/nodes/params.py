@@ -97,3 +97,48 @@ def _check_choice(p: Param, value: Any) -> None:
 
     if p.choices and value not in p.choices:
         raise ConfigError(p.name, value, f"one of {list(p.choices)}")
+
+
+#: The arm, its tool and where the hole is: shared by the nodes that need kinematics.
+CELL = (
+    Param("robot", "iiwa14", "robot model", choices=("iiwa14", "panda", "ur5")),
+    Param("tool_xyz", [0.0, 0.0, 0.10], "peg tip centre in the flange frame", "m"),
+    Param("tool_rpy", [0.0, 0.0, 0.0], "peg frame orientation in the flange frame", "rad"),
+    Param("hole_from_home", True,
+          "place {H} aligned under the peg at the robot's home (hole_xyz/rpy ignored)"),
+    Param("hole_xyz", [0.0, 0.0, 0.0], "origin of {H} in the base frame", "m"),
+    Param("hole_rpy", [0.0, 0.0, 0.0], "orientation of {H} in the base frame", "rad"),
+)  # fmt: skip
+
+
+def cell_from(values: dict[str, Any]) -> tuple[Any, Any]:
+    """The robot model and ``T_base_H`` from the CELL parameters."""
+    from fbcc_ros.core.kinematics import RobotModel, Tool, aligned_hole_at, pose
+
+    tool = Tool(tuple(values["tool_xyz"]), tuple(values["tool_rpy"]))  # type: ignore[arg-type]
+    robot = RobotModel.from_name(values["robot"], tool)
+    if values["hole_from_home"]:
+        return robot, aligned_hole_at(robot.peg_in_base(robot.home))
+    return robot, pose(values["hole_xyz"], values["hole_rpy"])
+
+
+def run(node_factory: Callable[[], Node]) -> None:
+    """The ``main()`` of every node (ros2/demos shape), on the EventsExecutor."""
+    import rclpy
+    from rclpy.executors import ExternalShutdownException
+    from rclpy.experimental import EventsExecutor
+
+    rclpy.init()
+    node = None
+    try:
+        node = node_factory()
+        executor = EventsExecutor()
+        executor.add_node(node)
+        while rclpy.ok():
+            executor.spin_once(timeout_sec=0.1)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()

@@ -1,0 +1,168 @@
+"""fbcc_controller node: compensated wrench + features → command features (Algorithm 1).
+
+Subscribes ``ft_sensor/compensated`` (WrenchStamped in {H}; each one is a control period) and
+``fbcc/features`` (PoseStamped: the peg in {H}); publishes ``fbcc/command`` (PoseStamped: the
+command features as the peg's pose in {H}), ``fbcc/phase`` and ``fbcc/contact_state``
+(String, on change). Services ``fbcc/start`` and ``fbcc/abort`` (std_srvs/Trigger).
+
+The law (``fbcc``, or the ``admittance`` baseline, or ``none``), its gains and the insertion come
+from a scenario file (DESIGN §4: ``geometry`` is the nominal pair, ``controller.params`` the
+gains, ``insertion`` the depth and speed). Safety (:mod:`fbcc_ros.core.supervisor`): a fault —
+force limit, stale input, non-finite input, IK failure — holds the last command and says why.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pinocchio as pin
+from geometry_msgs.msg import PoseStamped, WrenchStamped
+from rclpy.node import Node
+from std_msgs.msg import String
+from std_srvs.srv import Trigger
+
+from fbcc_ros.core import scenario as scenario_io
+from fbcc_ros.core.control import make_law
+from fbcc_ros.core.errors import ConfigError, FbccError
+from fbcc_ros.core.features import features_from_pose, pose_from_features
+from fbcc_ros.core.segmentation import response_state
+from fbcc_ros.core.supervisor import SafetyLimits, Supervisor
+from fbcc_ros.core.wrench import response_from_wrench
+from fbcc_ros.nodes import topics
+from fbcc_ros.nodes.convert import pose_from_msg, pose_to_msg, wrench_from_msg
+from fbcc_ros.nodes.params import Param, declare, run
+
+TABLE = (
+    Param("scenario", "config/scenarios/bringup_interference.yaml", "scenario YAML with the "
+          "nominal geometry, the gains (controller.params) and the insertion; relative paths "
+          "are tried from the working directory, then from the package's share directory"),
+    Param("law", "fbcc", "control law", choices=("fbcc", "admittance", "none")),
+    Param("rate_hz", 1000.0, "control rate (one period per compensated wrench)", "Hz", 1.0,
+          10000.0),
+    Param("timeout", 0.05, "stale input fault after this gap", "s", 1e-3, 10.0,
+          read_only=False),
+    Param("max_step", 5e-5, "largest change of dx, dy, l per command", "m", 1e-9, 0.01,
+          read_only=False),
+    Param("max_step_angle", 1e-3, "largest change of a tilt per command", "rad", 1e-9, 0.1,
+          read_only=False),
+    Param("auto_start", False, "start an insertion once features and wrenches arrive"),
+)  # fmt: skip
+
+
+def find_scenario(value: str) -> Path:
+    path = Path(value)
+    if path.is_file():
+        return path
+    try:
+        from ament_index_python.packages import get_package_share_directory
+
+        shared = Path(get_package_share_directory("fbcc_ros")) / value
+        if shared.is_file():
+            return shared
+    except (ImportError, LookupError, KeyError, ValueError):
+        pass
+    package = Path(__file__).resolve().parents[2] / value  # a source checkout
+    if package.is_file():
+        return package
+    raise ConfigError("scenario", value, "the path of a scenario YAML (DESIGN §4)")
+
+
+class FbccControllerNode(Node):
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("fbcc_controller", **kwargs)
+        values = declare(self, TABLE, self._apply)
+        sc = scenario_io.load(find_scenario(values["scenario"]))
+        self.nominal = sc.geometry
+        law = make_law(values["law"], sc.geometry, sc.params, sc.insertion)
+        self.sup = Supervisor(law, 1.0 / values["rate_hz"], self._limits(values))
+        self.auto_start = values["auto_start"]
+        self.pub_command = self.create_publisher(PoseStamped, topics.COMMAND, 10)
+        self.pub_phase = self.create_publisher(String, topics.PHASE, 10)
+        self.pub_state = self.create_publisher(String, topics.CONTACT_STATE, 10)
+        self.create_subscription(WrenchStamped, topics.COMPENSATED_WRENCH, self.on_wrench, 10)
+        self.create_subscription(PoseStamped, topics.FEATURES, self.on_features, 10)
+        self.create_subscription(String, topics.KINEMATICS_STATUS, self.on_kinematics, 10)
+        self.create_service(Trigger, topics.START, self.on_start)
+        self.create_service(Trigger, topics.ABORT, self.on_abort)
+        self.create_timer(0.01, self.on_watchdog)
+        self._phase_said = ""
+        self._state_said = ""
+        self._publish_phase()
+
+    @staticmethod
+    def _limits(values: dict[str, Any]) -> SafetyLimits:
+        return SafetyLimits(values["timeout"], values["max_step"], values["max_step_angle"])
+
+    def _apply(self, values: dict[str, Any]) -> None:
+        limits = self._limits(values)  # raises ConfigError, and the change is refused
+        self.sup.limits = limits
+
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def on_features(self, msg: PoseStamped) -> None:
+        try:
+            peg = pose_from_msg(msg)
+            x = features_from_pose(peg.rotation, peg.translation, self.nominal.peg_radius)
+        except FbccError as exc:
+            x = [float("nan")] * 5
+            self.get_logger().error(f"features rejected: {exc}", throttle_duration_sec=1.0)
+        self.sup.on_features(self._now(), x)
+
+    def on_wrench(self, msg: WrenchStamped) -> None:
+        now = self._now()
+        if self.auto_start and self.sup.phase == "idle" and self.sup.features is not None:
+            self._start(now)
+        response = response_from_wrench(wrench_from_msg(msg))
+        command = self.sup.on_response(now, response)
+        if command is not None:
+            rotation, position = pose_from_features(command, self.nominal.peg_radius)
+            pose = pin.SE3(rotation, position)
+            self.pub_command.publish(pose_to_msg(pose, topics.HOLE_FRAME, now))
+        if self.sup.features is not None and self.sup.active:
+            xoz, yoz = response_state(response, self.sup.features[2], self.nominal)
+            state = f"{xoz}/{yoz}"
+            if state != self._state_said:
+                self._state_said = state
+                self.pub_state.publish(String(data=state))
+        self._publish_phase()
+
+    def on_kinematics(self, msg: String) -> None:
+        self.sup.fault(msg.data)
+        self._publish_phase()
+
+    def on_watchdog(self) -> None:
+        self.sup.watchdog(self._now())
+        self._publish_phase()
+
+    def _start(self, now: float) -> tuple[bool, str]:
+        ok, message = self.sup.start(now)
+        self.get_logger().info(f"start: {message}")
+        self._publish_phase()
+        return ok, message
+
+    def on_start(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        response.success, response.message = self._start(self._now())
+        return response
+
+    def on_abort(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        response.success, response.message = self.sup.abort()
+        self._publish_phase()
+        return response
+
+    def _publish_phase(self) -> None:
+        said = f"{self.sup.phase}: {self.sup.reason}" if self.sup.reason else self.sup.phase
+        if said != self._phase_said:
+            self._phase_said = said
+            self.pub_phase.publish(String(data=said))
+            log = self.get_logger().error if self.sup.phase == "fault" else self.get_logger().info
+            log(f"phase {said}")
+
+
+def main() -> None:
+    run(FbccControllerNode)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,97 @@
+"""kinematics node: the feature solution and the TCP solution (Fig. 7).
+
+Subscribes ``joint_states`` (JointState) and ``fbcc/command`` (PoseStamped: the command
+features as the peg's pose in {H}). Publishes ``fbcc/features`` (PoseStamped: the measured peg
+pose in {H}, from which the features, depth included, follow by ``features_from_pose``),
+``fbcc/tcp_command`` (PoseStamped: the peg's target in the base frame) and ``joint_command``
+(Float64MultiArray of positions in the robot's joint order).
+
+Why Float64MultiArray: it is what ros2_controllers' forward position controller streams at the
+control rate; a JointTrajectory per 1 ms step would make a trajectory controller re-plan every
+period. An unreachable command (``IkError``) publishes nothing (the robot holds its last
+command) and says why on ``fbcc/kinematics_status``; the controller then faults.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from geometry_msgs.msg import PoseStamped
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray, String
+
+from fbcc_ros.core.errors import FbccError
+from fbcc_ros.core.features import features_from_pose
+from fbcc_ros.core.kinematics import CellKinematics, IkError
+from fbcc_ros.nodes import topics
+from fbcc_ros.nodes.convert import (
+    joints_from_msg,
+    pose_from_msg,
+    pose_to_msg,
+    positions_to_msg,
+    stamp_to_seconds,
+)
+from fbcc_ros.nodes.params import CELL, Param, cell_from, declare, run
+
+TABLE = (
+    *CELL,
+    Param("peg_radius", 5.04e-3, "nominal peg radius r (features <-> pose)", "m", 1e-4, 0.5),
+    Param("rate_hz", 1000.0, "control rate: the IK keeps each step within one period's joint "
+          "velocity limits", "Hz", 1.0, 10000.0),
+)  # fmt: skip
+
+
+class KinematicsNode(Node):
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("kinematics", **kwargs)
+        values = declare(self, TABLE)
+        robot, hole = cell_from(values)
+        self.cell = CellKinematics(robot, hole, values["peg_radius"])
+        self.dt = 1.0 / values["rate_hz"]
+        self.q = None
+        self.q_command = None
+        self.failures = 0
+        self.pub_features = self.create_publisher(PoseStamped, topics.FEATURES, 10)
+        self.pub_tcp = self.create_publisher(PoseStamped, topics.TCP_COMMAND, 10)
+        self.pub_joints = self.create_publisher(Float64MultiArray, topics.JOINT_COMMAND, 10)
+        self.pub_status = self.create_publisher(String, topics.KINEMATICS_STATUS, 10)
+        self.create_subscription(JointState, topics.JOINT_STATES, self.on_joints, 10)
+        self.create_subscription(PoseStamped, topics.COMMAND, self.on_command, 10)
+
+    def on_joints(self, msg: JointState) -> None:
+        try:
+            q, _ = joints_from_msg(msg, self.cell.robot.joint_names)
+            peg = self.cell.peg_in_hole(q)
+        except FbccError as exc:
+            self.get_logger().warn(f"joint state rejected: {exc}", throttle_duration_sec=1.0)
+            return
+        self.q = q
+        stamp = stamp_to_seconds(msg.header.stamp)
+        self.pub_features.publish(pose_to_msg(peg, topics.HOLE_FRAME, stamp))
+
+    def on_command(self, msg: PoseStamped) -> None:
+        if self.q is None:
+            return
+        try:
+            pose = pose_from_msg(msg)
+            x_c = features_from_pose(pose.rotation, pose.translation, self.cell.peg_radius)
+            start = self.q if self.q_command is None else self.q_command
+            solution = self.cell.tcp_solution(x_c, start, self.dt)
+        except (IkError, FbccError) as exc:
+            self.failures += 1
+            self.pub_status.publish(String(data=f"IK failed: {exc}"))
+            self.get_logger().error(f"command not followed: {exc}", throttle_duration_sec=1.0)
+            return
+        self.q_command = solution.q
+        stamp = stamp_to_seconds(msg.header.stamp)
+        self.pub_joints.publish(positions_to_msg(solution.q))
+        self.pub_tcp.publish(pose_to_msg(solution.peg_in_base, topics.BASE_FRAME, stamp))
+
+
+def main() -> None:
+    run(KinematicsNode)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,17 @@
+"""Topic and service names, relative so that a namespace or a remap moves a whole cell."""
+
+JOINT_STATES = "joint_states"
+JOINT_COMMAND = "joint_command"
+RAW_WRENCH = "ft_sensor/raw"
+COMPENSATED_WRENCH = "ft_sensor/compensated"
+FEATURES = "fbcc/features"
+COMMAND = "fbcc/command"
+TCP_COMMAND = "fbcc/tcp_command"
+PHASE = "fbcc/phase"
+CONTACT_STATE = "fbcc/contact_state"
+KINEMATICS_STATUS = "fbcc/kinematics_status"
+START = "fbcc/start"
+ABORT = "fbcc/abort"
+#: Frame ids on the wire.
+HOLE_FRAME = "hole"
+BASE_FRAME = "base"

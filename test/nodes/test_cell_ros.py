@@ -1,0 +1,76 @@
+"""The hardware-free cell over real DDS: an assembly through the ROS graph against the pure
+simulator, and every node started as a process with its YAML file, as ``ros2 run`` would."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fbcc_ros.core import scenario
+from fbcc_ros.core.contact import FEATURE_NAMES
+from fbcc_ros.core.simulation import simulate
+from fbcc_ros.nodes.bringup import main as bringup_main
+from fbcc_ros.nodes.bringup import run_cell
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENARIO = ROOT / "config" / "scenarios" / "bringup_interference.yaml"
+NODES = ("mock_cell", "dynamic_compensation", "kinematics", "fbcc_controller")
+
+
+def test_an_assembly_through_the_ros_graph_agrees_with_the_simulator() -> None:
+    """Four nodes in one process on the EventsExecutor, over Fast DDS: the mock cell (joint
+    space, IK, a sensor under the hole with a fixture, tared by the compensation) and the pure
+    simulator end in the same state with the same peak force."""
+    sc = scenario.load(SCENARIO)
+    outcome, _ = simulate(sc, "fbcc", record=False)
+    summary = run_cell(str(SCENARIO), "fbcc")
+    why = f"{summary['phase']} {summary['reason']} {summary['cycles']}"
+    assert summary["success"] and outcome.success[0], why
+    assert summary["phase"] == "inserted" and summary["cycles"]["ik_failures"] == 0, why
+    final = np.array([summary["final_features"][k] for k in FEATURE_NAMES])
+    expected = outcome.final_features[0]
+    np.testing.assert_allclose(final[[0, 1]], expected[[0, 1]], atol=2e-6)  # offsets [m]
+    np.testing.assert_allclose(final[2], expected[2], atol=1e-5)  # depth [m]
+    np.testing.assert_allclose(final[[3, 4]], expected[[3, 4]], atol=1e-4)  # tilts [rad]
+    assert summary["peak_fz"] == pytest.approx(outcome.peak_fz[0], rel=0.05)
+
+
+def test_bringup_command_reports_and_exits_zero(tmp_path: Path, capfd) -> None:
+    # capfd, not capsys: the EventsExecutor enables faulthandler, which needs a real stderr
+    assert bringup_main([str(SCENARIO), "--out", str(tmp_path)]) == 0
+    out = capfd.readouterr().out
+    assert "assembled: phase inserted" in out and (tmp_path / "summary.json").exists()
+
+
+def test_bringup_bad_input_exits_two(capsys) -> None:
+    assert bringup_main(["no/such/scenario.yaml"]) == 2
+    assert "no/such/scenario.yaml" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("node", NODES)
+def test_each_node_starts_as_a_process_with_its_yaml(node: str, tmp_path: Path) -> None:
+    """``python -m fbcc_ros.nodes.<node> --ros-args --params-file config/<node>.yaml``: still
+    running after start-up, no error logged, and it stops on SIGINT."""
+    cmd = [sys.executable, "-m", f"fbcc_ros.nodes.{node}", "--ros-args", "--params-file",
+           str(ROOT / "config" / f"{node}.yaml")]  # fmt: skip
+    log = tmp_path / "log.txt"
+    with log.open("w") as f:
+        proc = subprocess.Popen(cmd, cwd=ROOT, stdout=f, stderr=subprocess.STDOUT, env=os.environ)
+        try:
+            time.sleep(4.0)
+            assert proc.poll() is None, log.read_text()
+            proc.send_signal(signal.SIGINT)
+            proc.wait(timeout=10)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+    text = log.read_text()
+    assert "Traceback" not in text and "[ERROR]" not in text, text
