@@ -51,9 +51,10 @@ def run_cell(
     from rclpy.parameter import Parameter
 
     from fbcc_ros.nodes.dynamic_compensation import DynamicCompensationNode
-    from fbcc_ros.nodes.fbcc_controller import FbccControllerNode, find_scenario
+    from fbcc_ros.nodes.fbcc_controller import FbccControllerNode
     from fbcc_ros.nodes.kinematics import KinematicsNode
     from fbcc_ros.nodes.mock_cell import MockCellNode
+    from fbcc_ros.nodes.params import find_scenario
 
     path = str(find_scenario(scenario_path))
     sc = scenario_io.load(path)
@@ -101,7 +102,7 @@ def run_cell(
             executor.spin_once(timeout_sec=0.01)
             if time.monotonic() > deadline:
                 raise FbccError("the cell did not come up within 10 s (no compensated wrench)")
-        ok, message = ctrl._start(ctrl._now())
+        ok, message = ctrl.start_insertion(ctrl.now())
         if not ok:
             raise FbccError(f"could not start: {message}")
         start_index = len(mock.truth)
@@ -142,7 +143,9 @@ def run_cell(
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
-        sc = scenario_io.load(args.scenario)
+        from fbcc_ros.nodes.params import find_scenario
+
+        sc = scenario_io.load(find_scenario(args.scenario))
         law = args.law or sc.laws[0]
         print(
             f"fbcc_bringup: {sc.name}, law {law}, {sc.duration:.1f} s at {sc.rate_hz:.0f} Hz "

@@ -13,7 +13,6 @@ force limit, stale input, non-finite input, IK failure — holds the last comman
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import pinocchio as pin
@@ -24,14 +23,14 @@ from std_srvs.srv import Trigger
 
 from fbcc_ros.core import scenario as scenario_io
 from fbcc_ros.core.control import make_law
-from fbcc_ros.core.errors import ConfigError, FbccError
+from fbcc_ros.core.errors import FbccError
 from fbcc_ros.core.features import features_from_pose, pose_from_features
 from fbcc_ros.core.segmentation import response_state
 from fbcc_ros.core.supervisor import SafetyLimits, Supervisor
 from fbcc_ros.core.wrench import response_from_wrench
 from fbcc_ros.nodes import topics
 from fbcc_ros.nodes.convert import pose_from_msg, pose_to_msg, wrench_from_msg
-from fbcc_ros.nodes.params import Param, declare, run
+from fbcc_ros.nodes.params import Param, declare, find_scenario, run
 
 TABLE = (
     Param("scenario", "config/scenarios/bringup_interference.yaml", "scenario YAML with the "
@@ -48,24 +47,6 @@ TABLE = (
           read_only=False),
     Param("auto_start", False, "start an insertion once features and wrenches arrive"),
 )  # fmt: skip
-
-
-def find_scenario(value: str) -> Path:
-    path = Path(value)
-    if path.is_file():
-        return path
-    try:
-        from ament_index_python.packages import get_package_share_directory
-
-        shared = Path(get_package_share_directory("fbcc_ros")) / value
-        if shared.is_file():
-            return shared
-    except (ImportError, LookupError, KeyError, ValueError):
-        pass
-    package = Path(__file__).resolve().parents[2] / value  # a source checkout
-    if package.is_file():
-        return package
-    raise ConfigError("scenario", value, "the path of a scenario YAML (DESIGN §4)")
 
 
 class FbccControllerNode(Node):
@@ -98,7 +79,7 @@ class FbccControllerNode(Node):
         limits = self._limits(values)  # raises ConfigError, and the change is refused
         self.sup.limits = limits
 
-    def _now(self) -> float:
+    def now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
     def on_features(self, msg: PoseStamped) -> None:
@@ -108,12 +89,12 @@ class FbccControllerNode(Node):
         except FbccError as exc:
             x = [float("nan")] * 5
             self.get_logger().error(f"features rejected: {exc}", throttle_duration_sec=1.0)
-        self.sup.on_features(self._now(), x)
+        self.sup.on_features(self.now(), x)
 
     def on_wrench(self, msg: WrenchStamped) -> None:
-        now = self._now()
+        now = self.now()
         if self.auto_start and self.sup.phase == "idle" and self.sup.features is not None:
-            self._start(now)
+            self.start_insertion(now)
         response = response_from_wrench(wrench_from_msg(msg))
         command = self.sup.on_response(now, response)
         if command is not None:
@@ -133,17 +114,17 @@ class FbccControllerNode(Node):
         self._publish_phase()
 
     def on_watchdog(self) -> None:
-        self.sup.watchdog(self._now())
+        self.sup.watchdog(self.now())
         self._publish_phase()
 
-    def _start(self, now: float) -> tuple[bool, str]:
+    def start_insertion(self, now: float) -> tuple[bool, str]:
         ok, message = self.sup.start(now)
         self.get_logger().info(f"start: {message}")
         self._publish_phase()
         return ok, message
 
     def on_start(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        response.success, response.message = self._start(self._now())
+        response.success, response.message = self.start_insertion(self.now())
         return response
 
     def on_abort(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:

@@ -26,8 +26,7 @@ from fbcc_ros.core.mapping_study import perturbed
 from fbcc_ros.core.payload import Payload
 from fbcc_ros.nodes import topics
 from fbcc_ros.nodes.convert import joints_to_msg, positions_from_msg, wrench_to_msg
-from fbcc_ros.nodes.fbcc_controller import find_scenario
-from fbcc_ros.nodes.params import CELL, Param, cell_from, declare, run
+from fbcc_ros.nodes.params import CELL, Param, cell_from, declare, find_scenario, run
 
 TABLE = (
     Param("scenario", "config/scenarios/bringup_interference.yaml", "scenario YAML: the true "

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 from rcl_interfaces.msg import (
@@ -16,7 +17,7 @@ from rcl_interfaces.msg import (
 )
 from rclpy.node import Node
 
-from fbcc_ros.core.errors import FbccError
+from fbcc_ros.core.errors import ConfigError, FbccError
 
 
 @dataclasses.dataclass(frozen=True)
@@ -93,8 +94,6 @@ def declare(
 
 
 def _check_choice(p: Param, value: Any) -> None:
-    from fbcc_ros.core.errors import ConfigError
-
     if p.choices and value not in p.choices:
         raise ConfigError(p.name, value, f"one of {list(p.choices)}")
 
@@ -142,3 +141,21 @@ def run(node_factory: Callable[[], Node]) -> None:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+
+
+def find_scenario(value: str) -> Path:
+    path = Path(value)
+    if path.is_file():
+        return path
+    try:
+        from ament_index_python.packages import get_package_share_directory
+
+        shared = Path(get_package_share_directory("fbcc_ros")) / value
+        if shared.is_file():
+            return shared
+    except (ImportError, LookupError, KeyError, ValueError):
+        pass
+    package = Path(__file__).resolve().parents[2] / value  # a source checkout
+    if package.is_file():
+        return package
+    raise ConfigError("scenario", value, "the path of a scenario YAML (DESIGN §4)")
