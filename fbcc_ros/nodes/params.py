@@ -153,7 +153,7 @@ def find_scenario(value: str) -> Path:
         shared = Path(get_package_share_directory("fbcc_ros")) / value
         if shared.is_file():
             return shared
-    except (ImportError, LookupError, KeyError, ValueError):
+    except (ImportError, LookupError, KeyError, ValueError, OSError):
         pass
     package = Path(__file__).resolve().parents[2] / value  # a source checkout
     if package.is_file():
