@@ -62,15 +62,26 @@ def joints_from_msg(
     msg: JointState, names: tuple[str, ...]
 ) -> tuple[FloatArray, FloatArray | None]:
     """Positions (and velocities, if the message has them) in the order of ``names``."""
-    index = {name: i for i, name in enumerate(msg.name)}
-    missing = [n for n in names if n not in index]
-    if missing:
-        raise InputError("joint_states.name", list(msg.name), f"all of {list(names)}")
-    order = [index[n] for n in names]
+    order = _order(msg, names)
     q = np.asarray(msg.position, dtype=float)[order]
     if len(msg.velocity) != len(msg.name):
         return q, None
     return q, np.asarray(msg.velocity, dtype=float)[order]
+
+
+def efforts_from_msg(msg: JointState, names: tuple[str, ...]) -> FloatArray:
+    """The ``effort`` field (e.g. external joint torques) in the order of ``names``."""
+    order = _order(msg, names)
+    if len(msg.effort) != len(msg.name):
+        raise InputError("effort", len(msg.effort), f"{len(msg.name)} values, one per name")
+    return np.asarray(msg.effort, dtype=float)[order]
+
+
+def _order(msg: JointState, names: tuple[str, ...]) -> list[int]:
+    index = {name: i for i, name in enumerate(msg.name)}
+    if any(n not in index for n in names):
+        raise InputError("joint_states.name", list(msg.name), f"all of {list(names)}")
+    return [index[n] for n in names]
 
 
 def joints_to_msg(

@@ -24,6 +24,7 @@ from fbcc_ros.core.kinematics import pose
 from fbcc_ros.core.payload import Payload
 from fbcc_ros.nodes import topics
 from fbcc_ros.nodes.convert import (
+    efforts_from_msg,
     joints_from_msg,
     stamp_to_seconds,
     wrench_from_msg,
@@ -119,20 +120,19 @@ class DynamicCompensationNode(Node):
 
     def on_torques(self, msg: JointState) -> None:
         assert self.robot is not None
-        order = [list(msg.name).index(n) for n in self.robot.joint_names if n in msg.name]
-        if len(order) != self.robot.nq or len(msg.effort) != len(msg.name):
-            self.get_logger().warn(
-                "external torques without every joint", throttle_duration_sec=1.0
-            )
+        try:
+            tau = efforts_from_msg(msg, self.robot.joint_names)
+        except FbccError as exc:
+            self.get_logger().warn(f"external torques rejected: {exc}", throttle_duration_sec=1.0)
             return
-        tau = np.asarray(msg.effort, dtype=float)[order]
         self._publish(self.comp.joint_torques(stamp_to_seconds(msg.header.stamp), tau))
 
     def _publish(self, out: Any) -> None:
         if out is None:
-            counts = {k: v for k, v in self.comp.counts.items() if k != "accepted" and v}
-            if counts and not self.comp.counts["taring"] == sum(counts.values()):
-                self.get_logger().warn(f"samples rejected: {counts}", throttle_duration_sec=2.0)
+            counts = self.comp.counts
+            rejected = {k: v for k, v in counts.items() if k not in ("accepted", "taring") and v}
+            if rejected:
+                self.get_logger().warn(f"samples rejected: {rejected}", throttle_duration_sec=2.0)
             return
         self.pub.publish(wrench_to_msg(out.wrench, topics.HOLE_FRAME, out.stamp))
 

@@ -28,6 +28,16 @@ def _write_csv(path: Path, columns: dict[str, np.ndarray]) -> None:
         writer.writerows(np.column_stack(list(columns.values())).tolist())
 
 
+def _write_quaternion_csv(path: Path, rotations: Rotation, readings: np.ndarray) -> None:
+    """Static samples as a user records them: R_base_S as a quaternion, and the reading."""
+    quat = rotations.as_quat()
+    _write_csv(
+        path,
+        {**{k: quat[:, i] for i, k in enumerate(("qx", "qy", "qz", "qw"))},
+         **{k: readings[:, i] for i, k in enumerate(WRENCH)}},
+    )  # fmt: skip
+
+
 def _readings(motions: list[Motion], seed: int) -> np.ndarray:
     clean = np.array([payload_wrench(HOLDER, m) for m in motions]) + BIAS
     return clean + np.random.default_rng(seed).normal(0.0, NOISE, clean.shape)
@@ -36,13 +46,8 @@ def _readings(motions: list[Motion], seed: int) -> np.ndarray:
 def test_static_csv_with_quaternions(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     rotations = Rotation.random(12, random_state=4)
     readings = _readings([Motion.at_rest(r) for r in rotations.as_matrix()], seed=5)
-    quat = rotations.as_quat()
     data = tmp_path / "poses.csv"
-    _write_csv(
-        data,
-        {**{k: quat[:, i] for i, k in enumerate(("qx", "qy", "qz", "qw"))},
-         **{k: readings[:, i] for i, k in enumerate(WRENCH)}},
-    )  # fmt: skip
+    _write_quaternion_csv(data, rotations, readings)
     out, plot = tmp_path / "cfg" / "payload.yaml", tmp_path / "residual.png"
     assert calibrate.main([str(data), "--out", str(out), "--plot", str(plot)]) == 0
     payload, bias = load_calibration(out)
@@ -132,13 +137,8 @@ def test_poses_about_one_axis_are_refused_with_the_condition_number(
 ) -> None:
     rotations = Rotation.from_euler("z", np.linspace(0, 3, 8)[:, None])
     readings = _readings([Motion.at_rest(r) for r in rotations.as_matrix()], seed=1)
-    quat = rotations.as_quat()
     data = tmp_path / "flat.csv"
-    _write_csv(
-        data,
-        {**{k: quat[:, i] for i, k in enumerate(("qx", "qy", "qz", "qw"))},
-         **{k: readings[:, i] for i, k in enumerate(WRENCH)}},
-    )  # fmt: skip
+    _write_quaternion_csv(data, rotations, readings)
     out = tmp_path / "payload.yaml"
     assert calibrate.main([str(data), "--out", str(out)]) == 1
     err = capsys.readouterr().err
