@@ -122,15 +122,27 @@ def cell_from(values: dict[str, Any]) -> tuple[Any, Any]:
 
 
 def run(node_factory: Callable[[], Node]) -> None:
-    """The ``main()`` of every node (ros2/demos shape), on the EventsExecutor."""
+    """The ``main()`` of every node (ros2/demos shape), on the EventsExecutor.
+
+    A parameter that is refused at start-up (out of range, not a choice, a failed core check)
+    ends the process with exit status 2 and one line naming the value and what is allowed.
+    """
+    import sys
+
     import rclpy
+    from rclpy.exceptions import ParameterException
     from rclpy.executors import ExternalShutdownException
     from rclpy.experimental import EventsExecutor
 
     rclpy.init()
     node = None
     try:
-        node = node_factory()
+        try:
+            node = node_factory()
+        except (FbccError, ParameterException) as exc:
+            print(f"{getattr(node_factory, '__name__', 'node')}: {exc}", file=sys.stderr)
+            rclpy.try_shutdown()
+            raise SystemExit(2) from None
         executor = EventsExecutor()
         executor.add_node(node)
         while rclpy.ok():
