@@ -86,7 +86,8 @@ class KinematicsNode(Node):
         self.q_command = solution.q
         stamp = stamp_to_seconds(msg.header.stamp)
         self.pub_joints.publish(positions_to_msg(solution.q))
-        self.pub_tcp.publish(pose_to_msg(solution.peg_in_base, topics.BASE_FRAME, stamp))
+        if self.pub_tcp.get_subscription_count():  # an observer's topic: skip it unheard
+            self.pub_tcp.publish(pose_to_msg(solution.peg_in_base, topics.BASE_FRAME, stamp))
 
 
 def main() -> None:

@@ -5,7 +5,9 @@ scenario's lag, within its limits, and publishes ``joint_states`` at ``rate_hz``
 under the true hole publishes ``ft_sensor/raw`` (WrenchStamped) for the same instant: the
 contact of the true geometry (optionally drawn from Table II's tolerances, unknown to the
 controller) at the scenario's unknown hole deviation, plus the fixture's weight, the bias and
-the noise. The plant is :class:`fbcc_ros.core.cell.MockCell`. One node holds both roles because
+the noise. For scoring, it also publishes the true features and response of each tick on
+``mock_cell/truth`` (Float64MultiArray, fields in ``topics.TRUTH_FIELDS``) while anyone
+listens. The plant is :class:`fbcc_ros.core.cell.MockCell`. One node holds both roles because
 the sensor reads the arm's state of the same step.
 """
 
@@ -17,7 +19,7 @@ import numpy as np
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension, MultiArrayLayout
 
 from fbcc_ros.core import scenario as scenario_io
 from fbcc_ros.core.cell import MockCell
@@ -41,7 +43,7 @@ TABLE = (
 
 
 class MockCellNode(Node):
-    def __init__(self, record: bool = False, **kwargs: Any) -> None:
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__("mock_cell", **kwargs)
         values = declare(self, TABLE)
         sc = scenario_io.load(find_scenario(values["scenario"]))
@@ -56,10 +58,10 @@ class MockCellNode(Node):
         self.frame = values["sensor_frame"]
         self.names = robot.joint_names
         self.rejected = 0
-        self.record = record
-        self.truth: list[tuple[float, np.ndarray, np.ndarray]] = []
         self.pub_joints = self.create_publisher(JointState, topics.JOINT_STATES, 10)
         self.pub_raw = self.create_publisher(WrenchStamped, topics.RAW_WRENCH, 10)
+        self.pub_truth = self.create_publisher(Float64MultiArray, topics.TRUTH, 100)
+        self._truth = truth_message()
         self.create_subscription(Float64MultiArray, topics.JOINT_COMMAND, self.on_command, 10)
         self.create_timer(self.dt, self.on_tick)
 
@@ -75,8 +77,17 @@ class MockCellNode(Node):
         now = self.get_clock().now().nanoseconds * 1e-9
         self.pub_joints.publish(joints_to_msg(self.names, sample.q, sample.dq, now))
         self.pub_raw.publish(wrench_to_msg(sample.raw, self.frame, now))
-        if self.record:
-            self.truth.append((now, sample.features, sample.response))
+        if self.pub_truth.get_subscription_count():
+            self._truth.data = [now, *sample.features.tolist(), *sample.response.tolist()]
+            self.pub_truth.publish(self._truth)
+
+
+def truth_message() -> Float64MultiArray:
+    """An empty truth sample, its layout labelled with the fields (topics.TRUTH_FIELDS)."""
+    n = len(topics.TRUTH_FIELDS)
+    label = " ".join(topics.TRUTH_FIELDS)
+    return Float64MultiArray(layout=MultiArrayLayout(dim=[MultiArrayDimension(label=label,
+                             size=n, stride=n)]))  # fmt: skip
 
 
 def main() -> None:

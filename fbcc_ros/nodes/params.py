@@ -126,29 +126,32 @@ def run(node_factory: Callable[[], Node]) -> None:
 
     A parameter that is refused at start-up (out of range, not a choice, a failed core check)
     ends the process with exit status 2 and one line naming the value and what is allowed.
+    SIGINT and SIGTERM end the spin between callbacks (rclpy's own handlers would raise inside
+    a callback), then the node is destroyed and the process exits 0.
     """
+    import signal
     import sys
 
     import rclpy
     from rclpy.exceptions import ParameterException
-    from rclpy.executors import ExternalShutdownException
     from rclpy.experimental import EventsExecutor
+    from rclpy.signals import SignalHandlerOptions
 
-    rclpy.init()
+    stop: list[int] = []
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda number, _: stop.append(number))
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     node = None
     try:
         try:
             node = node_factory()
         except (FbccError, ParameterException) as exc:
             print(f"{getattr(node_factory, '__name__', 'node')}: {exc}", file=sys.stderr)
-            rclpy.try_shutdown()
             raise SystemExit(2) from None
         executor = EventsExecutor()
         executor.add_node(node)
-        while rclpy.ok():
+        while not stop and rclpy.ok():
             executor.spin_once(timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
     finally:
         if node is not None:
             node.destroy_node()

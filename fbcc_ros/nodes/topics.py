@@ -1,5 +1,7 @@
 """Topic and service names, relative so that a namespace or a remap moves a whole cell."""
 
+from rclpy.qos import DurabilityPolicy, QoSProfile
+
 JOINT_STATES = "joint_states"
 JOINT_COMMAND = "joint_command"
 RAW_WRENCH = "ft_sensor/raw"
@@ -15,3 +17,9 @@ ABORT = "fbcc/abort"
 #: Frame ids on the wire.
 HOLE_FRAME = "hole"
 BASE_FRAME = "base"
+#: The mock cell's ground truth, one Float64MultiArray per tick (published only when heard):
+#: what the real cell cannot measure, for scoring a hardware-free run.
+TRUTH = "mock_cell/truth"
+TRUTH_FIELDS = ("stamp", "dx", "dy", "l", "theta_x", "theta_y", "Fx", "Fy", "Fz", "Mx", "My")
+#: The phase is latched (transient local): a late subscriber still gets the current one.
+PHASE_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)

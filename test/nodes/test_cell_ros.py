@@ -16,8 +16,9 @@ import pytest
 from fbcc_ros.core import scenario
 from fbcc_ros.core.contact import FEATURE_NAMES
 from fbcc_ros.core.simulation import simulate
+from fbcc_ros.nodes.bringup import cell_nodes, run_cell, start_insertion
 from fbcc_ros.nodes.bringup import main as bringup_main
-from fbcc_ros.nodes.bringup import run_cell
+from fbcc_ros.nodes.harness import CellRun
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "config" / "scenarios" / "bringup_interference.yaml"
@@ -40,6 +41,46 @@ def test_an_assembly_through_the_ros_graph_agrees_with_the_simulator() -> None:
     np.testing.assert_allclose(final[2], expected[2], atol=1e-5)  # depth [m]
     np.testing.assert_allclose(final[[3, 4]], expected[[3, 4]], atol=1e-4)  # tilts [rad]
     assert summary["peak_fz"] == pytest.approx(outcome.peak_fz[0], rel=0.05)
+
+
+def test_an_assembly_with_each_node_in_its_own_process() -> None:
+    """``fbcc_bringup --processes``: the nodes as ``python -m fbcc_ros.nodes.<node>`` processes,
+    started through the ``fbcc/start`` service, scored from ``mock_cell/truth``. The loop is
+    slower here (latency of several periods on two cores), so only the end state and the peak
+    force are compared with the simulator."""
+    sc = scenario.load(SCENARIO)
+    outcome, _ = simulate(sc, "fbcc", record=False)
+    summary = run_cell(str(SCENARIO), "fbcc", processes=True)
+    why = f"{summary['phase']} {summary['reason']} {summary['cycles']}"
+    assert summary["success"] and summary["mode"] == "processes", why
+    final = np.array([summary["final_features"][k] for k in FEATURE_NAMES])
+    np.testing.assert_allclose(final[[0, 1]], outcome.final_features[0][[0, 1]], atol=2e-6)
+    np.testing.assert_allclose(final[2], outcome.final_features[0][2], atol=1e-5)
+    assert summary["peak_fz"] == pytest.approx(outcome.peak_fz[0], rel=0.10)
+    cpu = summary["cpu_per_node"]
+    assert all(cpu[node] > 0.01 for node in NODES), cpu  # each process did work
+
+
+def test_abort_through_the_service_holds_the_command() -> None:
+    """Over DDS: start, abort mid-insertion through ``fbcc/abort``; the phase says so, the arm
+    stops where it was, a second abort and a second start are refused with the reason."""
+    path = str(SCENARIO)
+    sc = scenario.load(path)
+    with CellRun(cell_nodes(path, sc, "fbcc")) as run:
+        start_insertion(run, timeout=10.0)
+        run.spin_for(0.5, lambda _: None)
+        answer = run.call(run.observer.abort_client)
+        assert answer.success, answer.message
+        run.spin_until(lambda: run.observer.phase == "aborted", 2.0, "no aborted phase")
+        run.spin_for(0.2, lambda _: None)  # the arm's lag settles on the held command
+        held = run.observer.truth[-1][3]
+        run.spin_for(0.5, lambda _: None)
+        assert 0.5e-3 < held < sc.insertion.depth  # stopped part-way
+        assert abs(run.observer.truth[-1][3] - held) < 1e-7  # depth l [m] no longer moves
+        again = run.call(run.observer.abort_client)
+        assert not again.success and again.message == "nothing to abort: aborted"
+        restart = run.call(run.observer.start_client)
+        assert restart.success, restart.message  # aborted is not active: a new one may start
 
 
 def test_bringup_command_reports_and_exits_zero(tmp_path: Path, capfd) -> None:
@@ -67,7 +108,7 @@ def test_each_node_starts_as_a_process_with_its_yaml(node: str, tmp_path: Path) 
             time.sleep(4.0)
             assert proc.poll() is None, log.read_text()
             proc.send_signal(signal.SIGINT)
-            proc.wait(timeout=10)
+            assert proc.wait(timeout=10) == 0
         finally:
             if proc.poll() is None:
                 proc.kill()

@@ -1,0 +1,184 @@
+"""Runs a set of nodes for a while — in this process on one EventsExecutor, or each as its own
+process — beside an :class:`~fbcc_ros.nodes.observer.Observer`, and accounts the CPU each node
+used. The bringup and the loop benchmark are built on it.
+
+CPU per node: in one process, the thread CPU time spent in each node's callbacks (the rest of
+the process's CPU is the executor, (de)serialisation and DDS, reported as ``executor``); as
+processes, each process's user + system time from ``/proc``.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from fbcc_ros.core.errors import FbccError
+
+
+@dataclass
+class NodeSpec:
+    """A node to run: its name (and module ``fbcc_ros.nodes.<name>``), its class for the
+    in-process mode, and its parameter overrides."""
+
+    name: str
+    factory: Callable[..., Any]
+    parameters: dict[str, Any] = field(default_factory=dict)
+
+
+def ros_args(parameters: dict[str, Any]) -> list[str]:
+    """``--ros-args -p name:=value ...`` (values in YAML, as ``ros2 run`` takes them)."""
+    args = ["--ros-args"]
+    for name, value in parameters.items():
+        text = str(value).lower() if isinstance(value, bool) else str(value)
+        args += ["-p", f"{name}:={text}"]
+    return args
+
+
+class CellRun:
+    """Context manager: a private rclpy context, an observer, and the nodes of ``specs``."""
+
+    def __init__(
+        self,
+        specs: list[NodeSpec],
+        processes: bool = False,
+        probe: bool = False,
+        log_dir: Path | None = None,
+    ) -> None:
+        import rclpy
+        from rclpy.experimental import EventsExecutor
+
+        from fbcc_ros.nodes.observer import Observer
+
+        self.specs = specs
+        self.processes = processes
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.executor = EventsExecutor(context=self.context)
+        self.observer = Observer(probe=probe, context=self.context)
+        self.nodes: dict[str, Any] = {}
+        self.procs: dict[str, subprocess.Popen[bytes]] = {}
+        self._callback_cpu: dict[str, int] = {}
+        self._time_callbacks("observer", self.observer)
+        self.executor.add_node(self.observer)
+        self.log_dir = log_dir or Path(tempfile.mkdtemp(prefix="fbcc_cell_"))
+        try:
+            for spec in specs:
+                if processes:
+                    self._spawn(spec)
+                else:
+                    self._construct(spec)
+        except BaseException:
+            self.close()
+            raise
+
+    def _construct(self, spec: NodeSpec) -> None:
+        from rclpy.parameter import Parameter
+
+        overrides = [Parameter(k, value=v) for k, v in spec.parameters.items()]
+        node = spec.factory(context=self.context, parameter_overrides=overrides)
+        self._time_callbacks(spec.name, node)
+        self.nodes[spec.name] = node
+        self.executor.add_node(node)
+
+    def _time_callbacks(self, name: str, node: Any) -> None:
+        """Wraps every callback of ``node`` to sum its thread CPU time under ``name``."""
+        self._callback_cpu[name] = 0
+        for entity in (*node.subscriptions, *node.timers, *node.services):
+            inner = entity.callback
+
+            def timed(*args: Any, _inner: Any = inner) -> Any:
+                t0 = time.thread_time_ns()
+                try:
+                    return _inner(*args)
+                finally:
+                    self._callback_cpu[name] += time.thread_time_ns() - t0
+
+            entity.callback = timed
+
+    def _spawn(self, spec: NodeSpec) -> None:
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        cmd = [sys.executable, "-m", f"fbcc_ros.nodes.{spec.name}", *ros_args(spec.parameters)]
+        with (self.log_dir / f"{spec.name}.log").open("wb") as log:
+            self.procs[spec.name] = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT)
+
+    def check_alive(self) -> None:
+        for name, proc in self.procs.items():
+            if proc.poll() is not None:
+                tail = (self.log_dir / f"{name}.log").read_text(errors="replace")[-600:]
+                raise FbccError(f"node {name} exited with status {proc.returncode}:\n{tail}")
+
+    def spin_until(self, done: Callable[[], bool], timeout: float, what: str) -> None:
+        deadline = time.monotonic() + timeout
+        while not done():
+            self.executor.spin_once(timeout_sec=0.01)
+            self.check_alive()
+            if time.monotonic() > deadline:
+                raise FbccError(f"{what} within {timeout:.0f} s")
+
+    def spin_for(self, seconds: float, every_second: Callable[[float], None]) -> None:
+        start = time.monotonic()
+        said = 0
+        while (elapsed := time.monotonic() - start) < seconds:
+            self.executor.spin_once(timeout_sec=0.01)
+            if elapsed >= said + 1:
+                said += 1
+                self.check_alive()
+                every_second(elapsed)
+
+    def call(self, client: Any, timeout: float = 10.0) -> Any:
+        """A std_srvs/Trigger call over DDS; returns the response."""
+        from std_srvs.srv import Trigger
+
+        name = client.srv_name
+        self.spin_until(client.service_is_ready, timeout, f"no service {name}")
+        future = client.call_async(Trigger.Request())
+        self.spin_until(future.done, timeout, f"no answer from {name}")
+        return future.result()
+
+    def cpu(self) -> dict[str, float]:
+        """CPU seconds so far (diff two calls for a window): per node, the observer's callbacks,
+        and ``executor``, the rest of this process (all of it, with processes)."""
+        out = {name: ns * 1e-9 for name, ns in self._callback_cpu.items()}
+        out["executor"] = time.process_time() - sum(out.values())
+        out.update({name: _process_cpu(proc.pid) for name, proc in self.procs.items()})
+        return out
+
+    def close(self) -> None:
+        import rclpy
+
+        for proc in self.procs.values():
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+        for proc in self.procs.values():
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:  # rclpy catches SIGTERM: only SIGKILL is sure
+                proc.kill()
+                proc.wait()
+        for node in self.nodes.values():
+            node.destroy_node()
+        self.observer.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+    def __enter__(self) -> CellRun:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _process_cpu(pid: int) -> float:
+    """User + system CPU seconds of a live process (Linux ``/proc/<pid>/stat``)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return float("nan")
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")

@@ -1,0 +1,123 @@
+"""The closed loop at 1 kHz over DDS, against a bare rclpy chain of the same shape.
+
+Both runs use the same mock cell as the source (joint states and raw wrenches each tick, joint
+commands back) and the same observer. The *bare* chain has three nodes with our nodes' topics,
+message types and subscriptions, doing no work: compensation copies the wrench, the controller
+answers each wrench with a fixed pose stamped with the sample's stamp, the kinematics answers
+with the last joint positions. So the difference between the two is what our computation and
+our message handling cost. Figures per run:
+
+- cycles delivered: joint commands received / periods of the run (rate × seconds);
+- latency: sensor stamp → TCP command received, p50 and p99 (both on the system clock);
+- CPU per node, as a share of one core (:mod:`fbcc_ros.nodes.harness`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from geometry_msgs.msg import PoseStamped, WrenchStamped
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+from fbcc_ros.core import scenario as scenario_io
+from fbcc_ros.nodes import topics
+from fbcc_ros.nodes.harness import CellRun, NodeSpec
+
+SCENARIO = "config/scenarios/bringup_interference.yaml"
+
+
+class BareCompensation(Node):
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("dynamic_compensation", **kwargs)
+        pub = self.create_publisher(WrenchStamped, topics.COMPENSATED_WRENCH, 10)
+        self.create_subscription(WrenchStamped, topics.RAW_WRENCH, pub.publish, 10)
+
+
+class BareController(Node):
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("fbcc_controller", **kwargs)
+        self.pub = self.create_publisher(PoseStamped, topics.COMMAND, 10)
+        self.command = PoseStamped()
+        self.create_subscription(WrenchStamped, topics.COMPENSATED_WRENCH, self.on_wrench, 10)
+        self.create_subscription(PoseStamped, topics.FEATURES, self.on_features, 10)
+
+    def on_wrench(self, msg: WrenchStamped) -> None:
+        self.command.header = msg.header
+        self.pub.publish(self.command)
+
+    def on_features(self, msg: PoseStamped) -> None:
+        self.features = msg
+
+
+class BareKinematics(Node):
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("kinematics", **kwargs)
+        self.q: list[float] | None = None
+        self.pub_features = self.create_publisher(PoseStamped, topics.FEATURES, 10)
+        self.pub_joints = self.create_publisher(Float64MultiArray, topics.JOINT_COMMAND, 10)
+        self.pub_tcp = self.create_publisher(PoseStamped, topics.TCP_COMMAND, 10)
+        self.features = PoseStamped()
+        self.create_subscription(JointState, topics.JOINT_STATES, self.on_joints, 10)
+        self.create_subscription(PoseStamped, topics.COMMAND, self.on_command, 10)
+
+    def on_joints(self, msg: JointState) -> None:
+        self.q = list(msg.position)
+        self.features.header = msg.header
+        self.pub_features.publish(self.features)
+
+    def on_command(self, msg: PoseStamped) -> None:
+        if self.q is not None:
+            self.pub_joints.publish(Float64MultiArray(data=self.q))
+            self.pub_tcp.publish(msg)
+
+
+@dataclass
+class LoopFigures:
+    chain: str
+    seconds: float
+    delivered: float  # joint commands / periods
+    latency_p50_us: float
+    latency_p99_us: float
+    cpu: dict[str, float]  # share of one core, per node
+
+
+def measure(chain: str, seconds: float, processes: bool = False) -> LoopFigures:
+    """Runs the ``bare`` or the ``fbcc`` chain for ``seconds`` at the scenario's rate."""
+    from fbcc_ros.nodes.bringup import cell_nodes, start_insertion
+    from fbcc_ros.nodes.params import find_scenario
+
+    path = str(find_scenario(SCENARIO))
+    sc = scenario_io.load(path)
+    specs = cell_nodes(path, sc, "fbcc")
+    if chain == "bare":
+        if processes:
+            raise ValueError("the bare chain runs in one process only")
+        bare = (BareCompensation, BareKinematics, BareController)
+        specs = [specs[0]] + [
+            NodeSpec(s.name, cls) for s, cls in zip(specs[1:], bare, strict=True)
+        ]
+    with CellRun(specs, processes=processes, probe=True) as run:
+        if chain == "bare":
+            run.spin_until(lambda: len(run.observer.latency) > 100, 10.0, "no TCP command")
+        else:
+            start_insertion(run, timeout=30.0 if processes else 10.0)
+        run.observer.reset_counts()
+        cpu0 = run.cpu()
+        run.spin_for(seconds, lambda _: None)
+        cpu = {k: (v - cpu0[k]) / seconds for k, v in run.cpu().items()}
+        latency = np.array(run.observer.latency) * 1e6
+        commands = run.observer.counts["commands"]
+    if latency.size == 0:
+        latency = np.array([np.nan])
+    return LoopFigures(
+        chain,
+        seconds,
+        commands / (seconds * sc.rate_hz),
+        float(np.percentile(latency, 50)),
+        float(np.percentile(latency, 99)),
+        cpu,
+    )

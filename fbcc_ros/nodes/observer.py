@@ -1,0 +1,68 @@
+"""The bringup's and the benchmark's view of a running cell, from its topics only.
+
+It needs nothing but the ROS graph, so the nodes it watches may run in this process or in
+others. It counts what flows (compensated wrenches, features, joint commands, IK failures),
+keeps the controller's phase (``fbcc/phase`` is latched), records the mock's ground truth
+(``mock_cell/truth``), starts and aborts through the controller's services, and, as a latency
+probe, times each TCP command against the sensor stamp it answers.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+from geometry_msgs.msg import PoseStamped, WrenchStamped
+from rclpy.node import Node
+from std_msgs.msg import Float64MultiArray, String
+from std_srvs.srv import Trigger
+
+from fbcc_ros.nodes import topics
+from fbcc_ros.nodes.convert import stamp_to_seconds
+
+
+class Observer(Node):
+    def __init__(self, probe: bool = False, **kwargs: Any) -> None:
+        super().__init__("fbcc_observer", **kwargs)
+        self.counts = {"compensated": 0, "features": 0, "commands": 0, "ik_failures": 0}
+        self.truth: list[list[float]] = []
+        self.latency: list[float] = []
+        self.phase, self.reason = "", ""
+        sub = self.create_subscription
+        sub(Float64MultiArray, topics.TRUTH, lambda m: self.truth.append(list(m.data)), 100)
+        sub(String, topics.PHASE, self.on_phase, topics.PHASE_QOS)
+        # counting needs no decoding: raw (serialised) messages spare ~30 µs each
+        for kind, topic, key in (
+            (WrenchStamped, topics.COMPENSATED_WRENCH, "compensated"),
+            (PoseStamped, topics.FEATURES, "features"),
+            (Float64MultiArray, topics.JOINT_COMMAND, "commands"),
+            (String, topics.KINEMATICS_STATUS, "ik_failures"),
+        ):
+            sub(kind, topic, self._counter(key), 10, raw=True)
+        if probe:
+            sub(PoseStamped, topics.TCP_COMMAND, self.on_tcp_command, 10)
+        self.start_client = self.create_client(Trigger, topics.START)
+        self.abort_client = self.create_client(Trigger, topics.ABORT)
+
+    def _counter(self, key: str) -> Any:
+        def count(_: Any) -> None:
+            self.counts[key] += 1
+
+        return count
+
+    def on_phase(self, msg: String) -> None:
+        self.phase, _, self.reason = (part.strip() for part in msg.data.partition(":"))
+
+    def on_tcp_command(self, msg: PoseStamped) -> None:
+        # sensor stamp -> this TCP command: the whole chain, both ends on the system clock
+        self.latency.append(time.time() - stamp_to_seconds(msg.header.stamp))
+
+    def reset_counts(self) -> None:
+        self.counts = dict.fromkeys(self.counts, 0)
+        self.latency.clear()
+
+    def truth_since(self, index: int) -> np.ndarray:
+        """Truth samples from ``index`` on, one row each (columns ``topics.TRUTH_FIELDS``)."""
+        rows = self.truth[index:]
+        return np.array(rows) if rows else np.zeros((0, len(topics.TRUTH_FIELDS)))
