@@ -19,7 +19,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from fbcc_ros.core.compensation import Compensator, SensorSetup
-from fbcc_ros.core.errors import FbccError
+from fbcc_ros.core.errors import ConfigError, FbccError
 from fbcc_ros.core.kinematics import pose
 from fbcc_ros.core.payload import Payload
 from fbcc_ros.nodes import topics
@@ -90,6 +90,9 @@ class DynamicCompensationNode(Node):
         )
         robot, hole = cell_from(values)
         setup = setup_from(values, hole)
+        if values["virtual_sensor"] and setup.placement != "wrist":
+            raise ConfigError("virtual_sensor", True, "placement 'wrist' with it (the joint "
+                              "torques give the wrench at the wrist)")  # fmt: skip
         self.robot = robot if setup.placement == "wrist" else None
         self.comp = Compensator(setup, self.robot)
         self.pub = self.create_publisher(WrenchStamped, topics.COMPENSATED_WRENCH, 10)

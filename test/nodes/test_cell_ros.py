@@ -118,14 +118,20 @@ def test_each_node_starts_as_a_process_with_its_yaml(node: str, tmp_path: Path) 
 
 
 @pytest.mark.parametrize(
-    ("override", "message"),
+    ("node", "override", "message"),
     [
-        ("law:=pid", "law='pid' is not allowed: expected one of ['fbcc', 'admittance', 'none']"),
-        ("timeout:=-1.0", "Parameter timeout out of range Min: 0.001, Max: 10.0, value: -1.0"),
+        ("fbcc_controller", "law:=pid",
+         "law='pid' is not allowed: expected one of ['fbcc', 'admittance', 'none']"),
+        ("fbcc_controller", "timeout:=-1.0",
+         "Parameter timeout out of range Min: 0.001, Max: 10.0, value: -1.0"),
+        ("dynamic_compensation", "virtual_sensor:=true",
+         "virtual_sensor=True is not allowed: expected placement 'wrist' with it"),
     ],
-)
-def test_a_bad_parameter_stops_a_node_with_a_message(override: str, message: str) -> None:
-    cmd = [sys.executable, "-m", "fbcc_ros.nodes.fbcc_controller", "--ros-args", "-p", override]
+)  # fmt: skip
+def test_a_bad_parameter_stops_a_node_with_a_message(
+    node: str, override: str, message: str
+) -> None:
+    cmd = [sys.executable, "-m", f"fbcc_ros.nodes.{node}", "--ros-args", "-p", override]
     run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert run.returncode == 2
     assert message in run.stderr and "Traceback" not in run.stderr, run.stderr

@@ -1,0 +1,163 @@
+"""Every key of ``config/*.yaml`` is declared by its node and reaches the node's core.
+
+"Reaches the core" is tested by mutation: a node is built with the YAML's values and again with
+one value changed; the fingerprint of what the node built from them (its core objects, numbers,
+strings and arrays, and the topics it publishes and subscribes) must change. A parameter that
+is declared but never read leaves the fingerprint as it was and fails here.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+import pytest
+import rclpy
+import yaml
+from rclpy.parameter import Parameter
+
+from fbcc_ros.nodes.dynamic_compensation import TABLE as COMPENSATION
+from fbcc_ros.nodes.dynamic_compensation import DynamicCompensationNode
+from fbcc_ros.nodes.fbcc_controller import TABLE as CONTROLLER
+from fbcc_ros.nodes.fbcc_controller import FbccControllerNode
+from fbcc_ros.nodes.kinematics import TABLE as KINEMATICS
+from fbcc_ros.nodes.kinematics import KinematicsNode
+from fbcc_ros.nodes.mock_cell import TABLE as MOCK
+from fbcc_ros.nodes.mock_cell import MockCellNode
+from fbcc_ros.nodes.params import Param
+
+ROOT = Path(__file__).resolve().parents[2]
+NODES = {
+    "mock_cell": (MockCellNode, MOCK),
+    "dynamic_compensation": (DynamicCompensationNode, COMPENSATION),
+    "kinematics": (KinematicsNode, KINEMATICS),
+    "fbcc_controller": (FbccControllerNode, CONTROLLER),
+}
+#: Changed values where a generic change would be invalid or meaningless.
+CHANGED: dict[str, Any] = {
+    "scenario": "config/scenarios/fig9_clearance.yaml",
+    "payload.inertia": [1e-3, 0.0, 0.0, 0.0, 1e-3, 0.0, 0.0, 0.0, 1e-3],
+    "deadband": [0.1, 0.01],
+    "robot": "panda",
+}
+#: Where the iiwa's home puts {H} (hole_from_home), nudged so that an explicit hole differs.
+HOLE = {"hole_xyz": [0.575, 0.0, 0.336], "hole_rpy": [0.0, 0.0, math.pi]}
+#: Parameters that matter only together with others (an explicit hole must be reachable).
+TOGETHER: dict[str, dict[str, Any]] = {
+    "hole_from_home": HOLE,
+    "hole_xyz": {"hole_from_home": False, **HOLE},
+    "hole_rpy": {"hole_from_home": False, **HOLE},
+    "virtual_sensor": {"placement": "wrist"},
+}
+
+
+def _flatten(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in tree.items():
+        if isinstance(value, dict):
+            out.update(_flatten(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = value
+    return out
+
+
+def _yaml(node: str) -> dict[str, Any]:
+    text = (ROOT / "config" / f"{node}.yaml").read_text()
+    return _flatten(yaml.safe_load(text)[node]["ros__parameters"])
+
+
+def _changed(p: Param, value: Any) -> Any:
+    if p.name in CHANGED:
+        return CHANGED[p.name]
+    if isinstance(value, bool):
+        return not value
+    if p.choices:
+        return next(c for c in p.choices if c != value)
+    if isinstance(value, int):
+        return value + 1
+    if isinstance(value, float):
+        low = -math.inf if p.low is None else p.low
+        high = math.inf if p.high is None else p.high
+        for candidate in (value * 1.5, value + 0.1, (low + high) / 2):
+            if candidate != value and low <= candidate <= high:
+                return candidate
+    if isinstance(value, list):
+        return [value[0] + 0.01, *value[1:]]
+    if isinstance(value, str):
+        return value + "_other"
+    raise AssertionError(f"no changed value for {p.name}={value!r}")
+
+
+def fingerprint(obj: Any, depth: int = 0, seen: set[int] | None = None) -> Any:
+    """The numbers, strings and arrays reachable from ``obj``, and the topics of its rclpy
+    entities; no identities or addresses."""
+    seen = set() if seen is None else seen
+    if obj is None or isinstance(obj, (bool, int, float, str)):
+        return obj
+    if isinstance(obj, np.ndarray):
+        return (obj.round(12) if obj.dtype.kind == "f" else obj).tolist()
+    if isinstance(obj, np.random.Generator):
+        return fingerprint(obj.bit_generator.state, depth + 1, seen)
+    if isinstance(obj, pin.SE3):
+        return obj.homogeneous.round(12).tolist()
+    if id(obj) in seen or depth > 8:
+        return "..."
+    seen.add(id(obj))
+    if isinstance(obj, (list, tuple)):
+        return [fingerprint(x, depth + 1, seen) for x in obj]
+    if isinstance(obj, dict):
+        return {str(k): fingerprint(v, depth + 1, seen) for k, v in obj.items()}
+    module = type(obj).__module__ or ""
+    if module.startswith("rclpy"):
+        topic = getattr(obj, "topic_name", None) or getattr(obj, "srv_name", None)
+        period = getattr(obj, "timer_period_ns", None)
+        return [type(obj).__name__, topic, period]
+    if module.startswith(("pinocchio", "rcl_interfaces", "std_msgs", "geometry_msgs")):
+        return type(obj).__name__
+    state = getattr(obj, "__dict__", None)
+    if state is None:
+        return type(obj).__name__
+    return {"type": type(obj).__name__,
+            **{k: fingerprint(v, depth + 1, seen) for k, v in state.items()}}  # fmt: skip
+
+
+def _built(cls: Any, values: dict[str, Any]) -> Any:
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        node = cls(
+            context=context,
+            parameter_overrides=[Parameter(k, value=v) for k, v in values.items()],
+        )
+        try:
+            # the node's own attributes (rclpy's are private, and _parameters would hold the
+            # very values under test), and the topics it uses
+            built = {k: v for k, v in vars(node).items() if not k.startswith("_")}
+            entities = [e.topic_name for e in (*node.publishers, *node.subscriptions)]
+            return fingerprint({"node": built, "entities": sorted(entities)})
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)
+
+
+@pytest.mark.parametrize("node", NODES)
+def test_every_yaml_key_is_declared_and_every_declared_one_is_in_the_yaml(node: str) -> None:
+    declared = {p.name: p.default for p in NODES[node][1]}
+    keys = _yaml(node)
+    assert set(keys) == set(declared), set(keys) ^ set(declared)
+    assert keys == declared  # the files hold the defaults (they are generated from the tables)
+
+
+CASES = [(node, p) for node, (_, table) in NODES.items() for p in table]
+
+
+@pytest.mark.parametrize(("node", "param"), CASES, ids=[f"{n}.{p.name}" for n, p in CASES])
+def test_every_parameter_reaches_the_core(node: str, param: Param) -> None:
+    cls, _ = NODES[node]
+    base = {**_yaml(node), **TOGETHER.get(param.name, {})}
+    changed = {**base, param.name: _changed(param, base[param.name])}
+    assert _built(cls, base) != _built(cls, changed), f"{param.name} changed nothing"
