@@ -6,7 +6,7 @@ Subscribes ``ft_sensor/raw`` (WrenchStamped in the sensor frame) and, for a wris
 ``ft_sensor/compensated``: the wrench the peg exerts on the hole, frame ``hole``, moments about
 the acting point (right-handed; the controller's Fz is its negated z force). The pipeline, the
 sign conventions and the calibration file are in ``docs/compensation.md``; rejected samples
-are counted and logged, never published.
+are counted and logged, never published; the counters go to ``/diagnostics`` each second.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ from fbcc_ros.nodes.convert import (
     wrench_from_msg,
     wrench_to_msg,
 )
+from fbcc_ros.nodes.diagnostics import counter_report, publish_diagnostics
 from fbcc_ros.nodes.params import CELL, Param, cell_from, declare, run
 
 TABLE = (
@@ -102,6 +103,8 @@ class DynamicCompensationNode(Node):
             self.create_subscription(JointState, "external_joint_torques", self.on_torques, 10)
         else:
             self.create_subscription(WrenchStamped, topics.RAW_WRENCH, self.on_raw, 10)
+        rejected = tuple(k for k in self.comp.counts if k not in ("accepted", "taring"))
+        publish_diagnostics(self, counter_report(lambda: self.comp.counts, rejected, "samples"))
 
     def on_joints(self, msg: JointState) -> None:
         assert self.robot is not None

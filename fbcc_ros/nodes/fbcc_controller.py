@@ -36,6 +36,7 @@ from fbcc_ros.nodes.convert import (
     stamp_to_seconds,
     wrench_from_msg,
 )
+from fbcc_ros.nodes.diagnostics import ERROR, OK, WARN, publish_diagnostics
 from fbcc_ros.nodes.params import Param, declare, find_scenario, run
 
 TABLE = (
@@ -76,6 +77,14 @@ class FbccControllerNode(Node):
         self._phase_said = ""
         self._state_said = ""
         self._publish_phase()
+        publish_diagnostics(self, self._report)
+
+    def _report(self) -> tuple[bytes, str, dict[str, Any]]:
+        level = {"fault": ERROR, "force_limit": WARN, "aborted": WARN}.get(self.sup.phase, OK)
+        said = f"{self.sup.phase}: {self.sup.reason}" if self.sup.reason else self.sup.phase
+        values = {"phase": self.sup.phase, "reason": self.sup.reason,
+                  "contact_state": self._state_said}  # fmt: skip
+        return level, said, values
 
     @staticmethod
     def _limits(values: dict[str, Any]) -> SafetyLimits:
@@ -150,8 +159,11 @@ class FbccControllerNode(Node):
         if said != self._phase_said:
             self._phase_said = said
             self.pub_phase.publish(String(data=said))
-            log = self.get_logger().error if self.sup.phase == "fault" else self.get_logger().info
-            log(f"phase {said}")
+            # one call site per severity: rclpy refuses a site that changes severity
+            if self.sup.phase == "fault":
+                self.get_logger().error(f"phase {said}")
+            else:
+                self.get_logger().info(f"phase {said}")
 
 
 def main() -> None:

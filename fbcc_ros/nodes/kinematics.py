@@ -32,6 +32,7 @@ from fbcc_ros.nodes.convert import (
     positions_to_msg,
     stamp_to_seconds,
 )
+from fbcc_ros.nodes.diagnostics import counter_report, publish_diagnostics
 from fbcc_ros.nodes.params import CELL, Param, cell_from, declare, run
 
 TABLE = (
@@ -58,6 +59,9 @@ class KinematicsNode(Node):
         self.pub_status = self.create_publisher(String, topics.KINEMATICS_STATUS, 10)
         self.create_subscription(JointState, topics.JOINT_STATES, self.on_joints, 10)
         self.create_subscription(PoseStamped, topics.COMMAND, self.on_command, 10)
+        publish_diagnostics(
+            self, counter_report(lambda: {"ik_failures": self.failures}, ("ik_failures",), "IK")
+        )
 
     def on_joints(self, msg: JointState) -> None:
         try:

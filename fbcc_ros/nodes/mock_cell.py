@@ -28,6 +28,7 @@ from fbcc_ros.core.mapping_study import perturbed
 from fbcc_ros.core.payload import Payload
 from fbcc_ros.nodes import topics
 from fbcc_ros.nodes.convert import joints_to_msg, positions_from_msg, wrench_to_msg
+from fbcc_ros.nodes.diagnostics import counter_report, publish_diagnostics
 from fbcc_ros.nodes.params import CELL, Param, cell_from, declare, find_scenario, run
 
 TABLE = (
@@ -64,6 +65,10 @@ class MockCellNode(Node):
         self._truth = truth_message()
         self.create_subscription(Float64MultiArray, topics.JOINT_COMMAND, self.on_command, 10)
         self.create_timer(self.dt, self.on_tick)
+        refused = ("commands_refused",)
+        publish_diagnostics(
+            self, counter_report(lambda: {"commands_refused": self.rejected}, refused, "commands")
+        )
 
     def on_command(self, msg: Float64MultiArray) -> None:
         try:

@@ -83,6 +83,31 @@ def test_abort_through_the_service_holds_the_command() -> None:
         assert restart.success, restart.message  # aborted is not active: a new one may start
 
 
+def test_each_node_reports_on_diagnostics() -> None:
+    """``/diagnostics`` once a second per node: the compensation's counters (taring, then
+    accepted samples, nothing rejected), the controller's phase, all at level OK."""
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    path = str(SCENARIO)
+    statuses: dict[str, object] = {}
+
+    def keep(msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            statuses[status.hardware_id] = status
+
+    with CellRun(cell_nodes(path, scenario.load(path), "fbcc")) as run:
+        run.observer.create_subscription(DiagnosticArray, "/diagnostics", keep, 50)
+        start_insertion(run, timeout=10.0)
+        run.spin_for(2.5, lambda _: None)  # the last report is >= 1.5 s into the insertion
+    assert set(statuses) == set(NODES), statuses
+    comp = {kv.key: kv.value for kv in statuses["dynamic_compensation"].values}  # type: ignore[attr-defined]
+    assert int(comp["accepted"]) > 500 and comp["non_finite"] == "0", comp
+    assert int(comp["taring"]) == 200  # the bringup's tare, done before the start
+    ctrl = statuses["fbcc_controller"]
+    assert ctrl.message in ("inserting", "inserted"), ctrl  # type: ignore[attr-defined]
+    assert all(s.level == b"\x00" for s in statuses.values()), statuses  # type: ignore[attr-defined]
+
+
 def test_bringup_command_reports_and_exits_zero(tmp_path: Path, capfd) -> None:
     # capfd, not capsys: the EventsExecutor enables faulthandler, which needs a real stderr
     assert bringup_main([str(SCENARIO), "--out", str(tmp_path)]) == 0
