@@ -161,3 +161,12 @@ def test_every_parameter_reaches_the_core(node: str, param: Param) -> None:
     base = {**_yaml(node), **TOGETHER.get(param.name, {})}
     changed = {**base, param.name: _changed(param, base[param.name])}
     assert _built(cls, base) != _built(cls, changed), f"{param.name} changed nothing"
+
+
+def test_the_parameter_reference_is_generated_from_the_tables() -> None:
+    from fbcc_ros.nodes.reference import markdown
+
+    committed = (ROOT / "docs" / "parameters.md").read_text()
+    assert committed == markdown(), "run: python -m fbcc_ros.nodes.reference"
+    for _, table in NODES.values():
+        assert all(f"| `{p.name}` |" in committed for p in table)

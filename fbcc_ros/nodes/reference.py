@@ -1,0 +1,64 @@
+"""Writes docs/parameters.md, the parameter reference, from the nodes' tables (the one source).
+
+    python -m fbcc_ros.nodes.reference [OUT.md]
+
+A test checks that the committed file is what this prints, so the reference cannot go stale.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from fbcc_ros.nodes import dynamic_compensation, fbcc_controller, kinematics, mock_cell
+from fbcc_ros.nodes.params import Param
+
+MODULES = (mock_cell, dynamic_compensation, kinematics, fbcc_controller)
+
+
+def _range(p: Param) -> str:
+    if p.choices:
+        return " \\| ".join(f"`{c}`" for c in p.choices)
+    if p.low is not None and p.high is not None:
+        if isinstance(p.default, int):
+            return f"{int(p.low)} … {int(p.high)}"
+        return f"{p.low:g} … {p.high:g}"
+    return ""
+
+
+def markdown() -> str:
+    lines = [
+        "# Parameter reference",
+        "",
+        "Generated from the nodes' parameter tables by `python -m fbcc_ros.nodes.reference`;",
+        "do not edit by hand. `config/<node>.yaml` holds every key with its default;",
+        "`ros2 param describe` shows the same descriptions at runtime. *writable*: may be",
+        "changed while the node runs (`ros2 param set`); the others are read-only.",
+    ]
+    for module in MODULES:
+        name = module.__name__.rsplit(".", 1)[1]
+        lines += [
+            "",
+            f"## `{name}`",
+            "",
+            "| parameter | default | unit | range | |",
+            "|---|---|---|---|---|",
+        ]
+        for p in module.TABLE:
+            writable = "writable — " if not p.read_only else ""
+            default = str(p.default).lower() if isinstance(p.default, bool) else p.default
+            text = f"{writable}{p.description}"
+            lines.append(f"| `{p.name}` | `{default}` | {p.unit} | {_range(p)} | {text} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = sys.argv[1:] if argv is None else argv
+    out = Path(args[0]) if args else Path("docs/parameters.md")
+    out.write_text(markdown())
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
