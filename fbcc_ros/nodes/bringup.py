@@ -53,7 +53,7 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="each node in its own process (as ros2 run would start them)",
     )
-    return parser  # fmt: skip
+    return parser
 
 
 def cell_nodes(

@@ -68,7 +68,9 @@ class CellRun:
         self._callback_cpu: dict[str, int] = {}
         self._time_callbacks("observer", self.observer)
         self.executor.add_node(self.observer)
-        self.log_dir = log_dir or Path(tempfile.mkdtemp(prefix="fbcc_cell_"))
+        if processes and log_dir is None:  # the nodes' output, for the message if one dies
+            log_dir = Path(tempfile.mkdtemp(prefix="fbcc_cell_"))
+        self.log_dir = log_dir or Path(".")
         try:
             for spec in specs:
                 if processes:
