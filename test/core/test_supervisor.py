@@ -43,7 +43,10 @@ def test_idle_until_started_then_inserting() -> None:
     [
         (lambda s: s.on_response(0.001, [0, 0, math.nan, 0, 0]), "non-finite or malformed resp"),
         (lambda s: s.on_features(0.001, [0, 0, math.inf, 0, 0]), "non-finite or malformed feat"),
-        (lambda s: s.watchdog(0.2), "stale compensated wrench: none for 0.200 s"),
+        (
+            lambda s: [s.watchdog(t) for t in np.arange(0.01, 0.2, 0.01)],
+            "stale compensated wrench: none for 0.060 s",
+        ),
         (lambda s: s.fault("IK failed: out of reach"), "IK failed"),
     ],
 )
@@ -55,6 +58,24 @@ def test_faults_hold_the_last_command_and_say_why(event, reason) -> None:
     event(sup)
     assert sup.phase == "fault" and reason in sup.reason
     np.testing.assert_array_equal(sup.on_response(0.002, np.ones(5)), held)
+
+
+def test_a_stall_of_our_own_is_not_stale_input() -> None:
+    """The watchdog's first call after 0.2 s without running at all (the process stalled)
+    waits one timeout for the queued input; input that then still does not come faults."""
+    sup = _supervisor(timeout=0.05)
+    sup.on_features(0.0, np.zeros(5))
+    sup.start(0.0)
+    sup.watchdog(0.2)
+    assert sup.phase == "inserting" and sup.stalls == 1
+    sup.on_features(0.201, np.zeros(5))
+    sup.on_response(0.201, np.zeros(5))  # the queued input arrives
+    for t in np.arange(0.21, 0.25, 0.01):
+        sup.watchdog(t)
+    assert sup.phase == "inserting"
+    for t in np.arange(0.25, 0.32, 0.01):  # nothing more comes
+        sup.watchdog(t)
+    assert sup.phase == "fault" and "stale" in sup.reason
 
 
 def test_stale_features_fault_on_the_next_wrench() -> None:
