@@ -119,17 +119,14 @@ class FbccControllerNode(Node):
             # stamped with the sample it answers, so latency is traceable down the chain
             self.pub_command.publish(pose_to_msg(pose, topics.HOLE_FRAME, stamp))
         # the segmentation costs ~50 µs a period: only for someone listening
-        if self.sup.features is not None and self.sup.active and self._listened(self.pub_state):
+        heard = self.pub_state.get_subscription_count()
+        if heard and self.sup.features is not None and self.sup.active:
             xoz, yoz = response_state(response, self.sup.features[2], self.nominal)
             state = f"{xoz}/{yoz}"
             if state != self._state_said:
                 self._state_said = state
                 self.pub_state.publish(String(data=state))
         self._publish_phase()
-
-    @staticmethod
-    def _listened(publisher: Any) -> bool:
-        return bool(publisher.get_subscription_count())
 
     def on_kinematics(self, msg: String) -> None:
         self.sup.fault(msg.data)

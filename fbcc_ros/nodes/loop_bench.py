@@ -42,6 +42,7 @@ class BareController(Node):
         super().__init__("fbcc_controller", **kwargs)
         self.pub = self.create_publisher(PoseStamped, topics.COMMAND, 10)
         self.command = PoseStamped()
+        self.features: PoseStamped | None = None
         self.create_subscription(WrenchStamped, topics.COMPENSATED_WRENCH, self.on_wrench, 10)
         self.create_subscription(PoseStamped, topics.FEATURES, self.on_features, 10)
 
