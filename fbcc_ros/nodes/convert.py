@@ -1,103 +1,98 @@
-"""Message <-> numpy conversions, one function pair per message type (the only place that knows
-both)."""
+"""Serialised messages <-> numpy and pinocchio, one function pair per message type.
+
+The bytes are the messages' CDR (:mod:`fbcc_ros.nodes.cdr`): the loop's nodes subscribe raw and
+publish bytes, which spares rclpy's message objects at 1 kHz. The checks on what arrives (a
+finite pose, a non-zero quaternion, every joint named) are made here.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from functools import lru_cache
+
 import numpy as np
 import pinocchio as pin
-from builtin_interfaces.msg import Time
-from geometry_msgs.msg import PoseStamped, WrenchStamped
 from numpy.typing import NDArray
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
 
 from fbcc_ros.core.errors import InputError
+from fbcc_ros.nodes import cdr
 
 FloatArray = NDArray[np.float64]
 
 
-def stamp_to_seconds(stamp: Time) -> float:
-    return stamp.sec + stamp.nanosec * 1e-9
+def stamp_to_seconds(stamp: cdr.Stamp) -> float:
+    return stamp[0] + stamp[1] * 1e-9
 
 
-def seconds_to_stamp(seconds: float) -> Time:
+def seconds_to_stamp(seconds: float) -> cdr.Stamp:
     sec = int(seconds // 1)
-    return Time(sec=sec, nanosec=min(round((seconds - sec) * 1e9), 999_999_999))
+    return sec, min(round((seconds - sec) * 1e9), 999_999_999)
 
 
-def wrench_from_msg(msg: WrenchStamped) -> FloatArray:
-    f, t = msg.wrench.force, msg.wrench.torque
-    return np.array([f.x, f.y, f.z, t.x, t.y, t.z])
+def wrench_from_cdr(data: bytes) -> tuple[float, str, FloatArray]:
+    """WrenchStamped → (stamp [s], frame_id, (fx, fy, fz, tx, ty, tz))."""
+    stamp, frame, wrench = cdr.decode_wrench(data)
+    return stamp_to_seconds(stamp), frame, np.array(wrench)
 
 
-def wrench_to_msg(wrench: FloatArray, frame_id: str, seconds: float) -> WrenchStamped:
-    msg = WrenchStamped()
-    msg.header.stamp = seconds_to_stamp(seconds)
-    msg.header.frame_id = frame_id
-    f, t = msg.wrench.force, msg.wrench.torque
-    f.x, f.y, f.z, t.x, t.y, t.z = (float(v) for v in wrench)
-    return msg
+def wrench_to_cdr(wrench: FloatArray, frame_id: str, seconds: float) -> bytes:
+    return cdr.encode_wrench(seconds_to_stamp(seconds), frame_id, wrench.tolist())
 
 
-def pose_from_msg(msg: PoseStamped) -> pin.SE3:
-    p, q = msg.pose.position, msg.pose.orientation
-    norm = np.sqrt(q.x**2 + q.y**2 + q.z**2 + q.w**2)
-    if not np.isfinite([p.x, p.y, p.z, norm]).all() or norm < 1e-6:
-        raise InputError("pose", msg.pose, "a finite position and a non-zero quaternion")
-    quat = pin.Quaternion(q.w / norm, q.x / norm, q.y / norm, q.z / norm)
-    return pin.SE3(quat.matrix(), np.array([p.x, p.y, p.z]))
+def pose_from_cdr(data: bytes) -> tuple[float, pin.SE3]:
+    """PoseStamped → (stamp [s], pose); the quaternion is normalised."""
+    stamp, _, (x, y, z, qx, qy, qz, qw) = cdr.decode_pose(data)
+    norm = np.sqrt(qx**2 + qy**2 + qz**2 + qw**2)
+    if not np.isfinite([x, y, z, norm]).all() or norm < 1e-6:
+        raise InputError("pose", (x, y, z, qx, qy, qz, qw),
+                         "a finite position and a non-zero quaternion")  # fmt: skip
+    quat = pin.Quaternion(qw / norm, qx / norm, qy / norm, qz / norm)
+    return stamp_to_seconds(stamp), pin.SE3(quat.matrix(), np.array([x, y, z]))
 
 
-def pose_to_msg(pose: pin.SE3, frame_id: str, seconds: float) -> PoseStamped:
-    msg = PoseStamped()
-    msg.header.stamp = seconds_to_stamp(seconds)
-    msg.header.frame_id = frame_id
-    p, q = msg.pose.position, msg.pose.orientation
-    p.x, p.y, p.z = (float(v) for v in pose.translation)
-    q.x, q.y, q.z, q.w = (float(v) for v in pin.Quaternion(pose.rotation).coeffs())
-    return msg
+def pose_to_cdr(pose: pin.SE3, frame_id: str, seconds: float) -> bytes:
+    quat = pin.Quaternion(pose.rotation).coeffs()  # x, y, z, w
+    values = [*pose.translation.tolist(), *quat.tolist()]
+    return cdr.encode_pose(seconds_to_stamp(seconds), frame_id, values)
 
 
-def joints_from_msg(
-    msg: JointState, names: tuple[str, ...]
-) -> tuple[FloatArray, FloatArray | None]:
-    """Positions (and velocities, if the message has them) in the order of ``names``."""
-    order = _order(msg, names)
-    q = np.asarray(msg.position, dtype=float)[order]
-    if len(msg.velocity) != len(msg.name):
-        return q, None
-    return q, np.asarray(msg.velocity, dtype=float)[order]
+def joints_from_cdr(
+    data: bytes, names: tuple[str, ...]
+) -> tuple[float, FloatArray, FloatArray | None]:
+    """JointState → (stamp [s], positions, velocities or None if absent), in ``names`` order."""
+    stamp, _, got, position, velocity, _ = cdr.decode_joints(data)
+    order = _order(tuple(got), names, len(position), "position")
+    q = np.array(position)[order]
+    if len(velocity) != len(got):
+        return stamp_to_seconds(stamp), q, None
+    return stamp_to_seconds(stamp), q, np.array(velocity)[order]
 
 
-def efforts_from_msg(msg: JointState, names: tuple[str, ...]) -> FloatArray:
-    """The ``effort`` field (e.g. external joint torques) in the order of ``names``."""
-    order = _order(msg, names)
-    if len(msg.effort) != len(msg.name):
-        raise InputError("effort", len(msg.effort), f"{len(msg.name)} values, one per name")
-    return np.asarray(msg.effort, dtype=float)[order]
+def efforts_from_cdr(data: bytes, names: tuple[str, ...]) -> tuple[float, FloatArray]:
+    """JointState's ``effort`` (e.g. external joint torques) → (stamp [s], in ``names`` order)."""
+    stamp, _, got, _, _, effort = cdr.decode_joints(data)
+    order = _order(tuple(got), names, len(effort), "effort")
+    return stamp_to_seconds(stamp), np.array(effort)[order]
 
 
-def _order(msg: JointState, names: tuple[str, ...]) -> list[int]:
-    index = {name: i for i, name in enumerate(msg.name)}
+@lru_cache(maxsize=8)
+def _order(got: tuple[str, ...], names: tuple[str, ...], size: int, field: str) -> list[int]:
+    index = {name: i for i, name in enumerate(got)}
     if any(n not in index for n in names):
-        raise InputError("joint_states.name", list(msg.name), f"all of {list(names)}")
+        raise InputError("joint_states.name", list(got), f"all of {list(names)}")
+    if size != len(got):
+        raise InputError(field, size, f"{len(got)} values, one per name")
     return [index[n] for n in names]
 
 
-def joints_to_msg(
-    names: tuple[str, ...], q: FloatArray, dq: FloatArray, seconds: float
-) -> JointState:
-    msg = JointState()
-    msg.header.stamp = seconds_to_stamp(seconds)
-    msg.name = list(names)
-    msg.position = q.tolist()
-    msg.velocity = dq.tolist()
-    return msg
+def joints_to_cdr(names: Sequence[str], q: FloatArray, dq: FloatArray, seconds: float) -> bytes:
+    return cdr.encode_joints(seconds_to_stamp(seconds), "", names, q.tolist(), dq.tolist())
 
 
-def positions_from_msg(msg: Float64MultiArray) -> FloatArray:
-    return np.asarray(msg.data, dtype=float)
+def positions_from_cdr(data: bytes) -> FloatArray:
+    """Float64MultiArray → its data."""
+    return np.array(cdr.decode_array(data))
 
 
-def positions_to_msg(q: FloatArray) -> Float64MultiArray:
-    return Float64MultiArray(data=q.tolist())
+def positions_to_cdr(q: FloatArray) -> bytes:
+    return cdr.encode_array(q.tolist())

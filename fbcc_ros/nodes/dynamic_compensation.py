@@ -24,11 +24,10 @@ from fbcc_ros.core.kinematics import pose
 from fbcc_ros.core.payload import Payload
 from fbcc_ros.nodes import topics
 from fbcc_ros.nodes.convert import (
-    efforts_from_msg,
-    joints_from_msg,
-    stamp_to_seconds,
-    wrench_from_msg,
-    wrench_to_msg,
+    efforts_from_cdr,
+    joints_from_cdr,
+    wrench_from_cdr,
+    wrench_to_cdr,
 )
 from fbcc_ros.nodes.diagnostics import counter_report, publish_diagnostics
 from fbcc_ros.nodes.params import CELL, Param, cell_from, declare, run
@@ -97,41 +96,41 @@ class DynamicCompensationNode(Node):
         self.robot = robot if setup.placement == "wrist" else None
         self.comp = Compensator(setup, self.robot)
         self.pub = self.create_publisher(WrenchStamped, topics.COMPENSATED_WRENCH, 10)
+        sub = self.create_subscription  # raw: CDR bytes, decoded by fbcc_ros.nodes.convert
         if self.robot is not None:
-            self.create_subscription(JointState, topics.JOINT_STATES, self.on_joints, 10)
+            sub(JointState, topics.JOINT_STATES, self.on_joints, 10, raw=True)
         if values["virtual_sensor"]:
-            self.create_subscription(JointState, "external_joint_torques", self.on_torques, 10)
+            sub(JointState, "external_joint_torques", self.on_torques, 10, raw=True)
         else:
-            self.create_subscription(WrenchStamped, topics.RAW_WRENCH, self.on_raw, 10)
+            sub(WrenchStamped, topics.RAW_WRENCH, self.on_raw, 10, raw=True)
         rejected = tuple(k for k in self.comp.counts if k not in ("accepted", "taring"))
         publish_diagnostics(self, counter_report(lambda: self.comp.counts, rejected, "samples"))
 
-    def on_joints(self, msg: JointState) -> None:
+    def on_joints(self, data: bytes) -> None:
         assert self.robot is not None
         try:
-            q, dq = joints_from_msg(msg, self.robot.joint_names)
+            stamp, q, dq = joints_from_cdr(data, self.robot.joint_names)
         except FbccError as exc:
             self.get_logger().warn(f"joint state rejected: {exc}", throttle_duration_sec=1.0)
             return
-        self.comp.joints(stamp_to_seconds(msg.header.stamp), q, dq)
+        self.comp.joints(stamp, q, dq)
 
-    def on_raw(self, msg: WrenchStamped) -> None:
-        stamp = stamp_to_seconds(msg.header.stamp)
+    def on_raw(self, data: bytes) -> None:
         try:
-            out = self.comp.reading(stamp, msg.header.frame_id, wrench_from_msg(msg))
+            out = self.comp.reading(*wrench_from_cdr(data))
         except FbccError as exc:
             self.get_logger().error(str(exc), throttle_duration_sec=1.0)
             return
         self._publish(out)
 
-    def on_torques(self, msg: JointState) -> None:
+    def on_torques(self, data: bytes) -> None:
         assert self.robot is not None
         try:
-            tau = efforts_from_msg(msg, self.robot.joint_names)
+            stamp, tau = efforts_from_cdr(data, self.robot.joint_names)
         except FbccError as exc:
             self.get_logger().warn(f"external torques rejected: {exc}", throttle_duration_sec=1.0)
             return
-        self._publish(self.comp.joint_torques(stamp_to_seconds(msg.header.stamp), tau))
+        self._publish(self.comp.joint_torques(stamp, tau))
 
     def _publish(self, out: Any) -> None:
         if out is None:
@@ -140,7 +139,7 @@ class DynamicCompensationNode(Node):
             if rejected:
                 self.get_logger().warn(f"samples rejected: {rejected}", throttle_duration_sec=2.0)
             return
-        self.pub.publish(wrench_to_msg(out.wrench, topics.HOLE_FRAME, out.stamp))
+        self.pub.publish(wrench_to_cdr(out.wrench, topics.HOLE_FRAME, out.stamp))
 
 
 def main() -> None:

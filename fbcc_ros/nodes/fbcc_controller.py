@@ -30,12 +30,7 @@ from fbcc_ros.core.segmentation import response_state
 from fbcc_ros.core.supervisor import SafetyLimits, Supervisor
 from fbcc_ros.core.wrench import response_from_wrench
 from fbcc_ros.nodes import topics
-from fbcc_ros.nodes.convert import (
-    pose_from_msg,
-    pose_to_msg,
-    stamp_to_seconds,
-    wrench_from_msg,
-)
+from fbcc_ros.nodes.convert import pose_from_cdr, pose_to_cdr, wrench_from_cdr
 from fbcc_ros.nodes.diagnostics import ERROR, OK, WARN, publish_diagnostics
 from fbcc_ros.nodes.params import Param, declare, find_scenario, run
 
@@ -68,8 +63,10 @@ class FbccControllerNode(Node):
         self.pub_command = self.create_publisher(PoseStamped, topics.COMMAND, 10)
         self.pub_phase = self.create_publisher(String, topics.PHASE, topics.PHASE_QOS)
         self.pub_state = self.create_publisher(String, topics.CONTACT_STATE, 10)
-        self.create_subscription(WrenchStamped, topics.COMPENSATED_WRENCH, self.on_wrench, 10)
-        self.create_subscription(PoseStamped, topics.FEATURES, self.on_features, 10)
+        # raw: CDR bytes, decoded by fbcc_ros.nodes.convert (no rclpy message objects at 1 kHz)
+        sub = self.create_subscription
+        sub(WrenchStamped, topics.COMPENSATED_WRENCH, self.on_wrench, 10, raw=True)
+        sub(PoseStamped, topics.FEATURES, self.on_features, 10, raw=True)
         self.create_subscription(String, topics.KINEMATICS_STATUS, self.on_kinematics, 10)
         self.create_service(Trigger, topics.START, self.on_start)
         self.create_service(Trigger, topics.ABORT, self.on_abort)
@@ -97,27 +94,31 @@ class FbccControllerNode(Node):
     def now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
-    def on_features(self, msg: PoseStamped) -> None:
+    def on_features(self, data: bytes) -> None:
         try:
-            peg = pose_from_msg(msg)
+            _, peg = pose_from_cdr(data)
             x = features_from_pose(peg.rotation, peg.translation, self.nominal.peg_radius)
         except FbccError as exc:
             x = [float("nan")] * 5
             self.get_logger().error(f"features rejected: {exc}", throttle_duration_sec=1.0)
         self.sup.on_features(self.now(), x)
 
-    def on_wrench(self, msg: WrenchStamped) -> None:
+    def on_wrench(self, data: bytes) -> None:
         now = self.now()
         if self.auto_start and self.sup.phase == "idle" and self.sup.features is not None:
             self.start_insertion(now)
-        stamp = stamp_to_seconds(msg.header.stamp)
-        response = response_from_wrench(wrench_from_msg(msg))
+        try:
+            stamp, _, wrench = wrench_from_cdr(data)
+        except FbccError as exc:
+            self.get_logger().error(f"wrench rejected: {exc}", throttle_duration_sec=1.0)
+            return
+        response = response_from_wrench(wrench)
         command = self.sup.on_response(now, response)
         if command is not None:
             rotation, position = pose_from_features(command, self.nominal.peg_radius)
             pose = pin.SE3(rotation, position)
             # stamped with the sample it answers, so latency is traceable down the chain
-            self.pub_command.publish(pose_to_msg(pose, topics.HOLE_FRAME, stamp))
+            self.pub_command.publish(pose_to_cdr(pose, topics.HOLE_FRAME, stamp))
         # the segmentation costs ~50 µs a period: only for someone listening
         heard = self.pub_state.get_subscription_count()
         if heard and self.sup.features is not None and self.sup.active:

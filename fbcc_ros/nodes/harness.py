@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from fbcc_ros.core.errors import FbccError
+from fbcc_ros.nodes.params import freeze_heap
 
 
 @dataclass
@@ -77,6 +78,7 @@ class CellRun:
                     self._spawn(spec)
                 else:
                     self._construct(spec)
+            freeze_heap()
         except BaseException:
             self.close()
             raise

@@ -25,13 +25,7 @@ from fbcc_ros.core.errors import FbccError
 from fbcc_ros.core.features import features_from_pose
 from fbcc_ros.core.kinematics import CellKinematics, IkError
 from fbcc_ros.nodes import topics
-from fbcc_ros.nodes.convert import (
-    joints_from_msg,
-    pose_from_msg,
-    pose_to_msg,
-    positions_to_msg,
-    stamp_to_seconds,
-)
+from fbcc_ros.nodes.convert import joints_from_cdr, pose_from_cdr, pose_to_cdr, positions_to_cdr
 from fbcc_ros.nodes.diagnostics import counter_report, publish_diagnostics
 from fbcc_ros.nodes.params import CELL, Param, cell_from, declare, run
 
@@ -57,28 +51,28 @@ class KinematicsNode(Node):
         self.pub_tcp = self.create_publisher(PoseStamped, topics.TCP_COMMAND, 10)
         self.pub_joints = self.create_publisher(Float64MultiArray, topics.JOINT_COMMAND, 10)
         self.pub_status = self.create_publisher(String, topics.KINEMATICS_STATUS, 10)
-        self.create_subscription(JointState, topics.JOINT_STATES, self.on_joints, 10)
-        self.create_subscription(PoseStamped, topics.COMMAND, self.on_command, 10)
+        # raw: CDR bytes, decoded by fbcc_ros.nodes.convert (no rclpy message objects at 1 kHz)
+        self.create_subscription(JointState, topics.JOINT_STATES, self.on_joints, 10, raw=True)
+        self.create_subscription(PoseStamped, topics.COMMAND, self.on_command, 10, raw=True)
         publish_diagnostics(
             self, counter_report(lambda: {"ik_failures": self.failures}, ("ik_failures",), "IK")
         )
 
-    def on_joints(self, msg: JointState) -> None:
+    def on_joints(self, data: bytes) -> None:
         try:
-            q, _ = joints_from_msg(msg, self.cell.robot.joint_names)
+            stamp, q, _ = joints_from_cdr(data, self.cell.robot.joint_names)
             peg = self.cell.peg_in_hole(q)
         except FbccError as exc:
             self.get_logger().warn(f"joint state rejected: {exc}", throttle_duration_sec=1.0)
             return
         self.q = q
-        stamp = stamp_to_seconds(msg.header.stamp)
-        self.pub_features.publish(pose_to_msg(peg, topics.HOLE_FRAME, stamp))
+        self.pub_features.publish(pose_to_cdr(peg, topics.HOLE_FRAME, stamp))
 
-    def on_command(self, msg: PoseStamped) -> None:
+    def on_command(self, data: bytes) -> None:
         if self.q is None:
             return
         try:
-            pose = pose_from_msg(msg)
+            stamp, pose = pose_from_cdr(data)
             x_c = features_from_pose(pose.rotation, pose.translation, self.cell.peg_radius)
             start = self.q if self.q_command is None else self.q_command
             solution = self.cell.tcp_solution(x_c, start, self.dt)
@@ -88,10 +82,9 @@ class KinematicsNode(Node):
             self.get_logger().error(f"command not followed: {exc}", throttle_duration_sec=1.0)
             return
         self.q_command = solution.q
-        stamp = stamp_to_seconds(msg.header.stamp)
-        self.pub_joints.publish(positions_to_msg(solution.q))
+        self.pub_joints.publish(positions_to_cdr(solution.q))
         if self.pub_tcp.get_subscription_count():  # an observer's topic: skip it unheard
-            self.pub_tcp.publish(pose_to_msg(solution.peg_in_base, topics.BASE_FRAME, stamp))
+            self.pub_tcp.publish(pose_to_cdr(solution.peg_in_base, topics.BASE_FRAME, stamp))
 
 
 def main() -> None:

@@ -13,13 +13,14 @@ the sensor reads the arm's state of the same step.
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import numpy as np
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray, MultiArrayDimension, MultiArrayLayout
+from std_msgs.msg import Float64MultiArray
 
 from fbcc_ros.core import scenario as scenario_io
 from fbcc_ros.core.cell import MockCell
@@ -27,7 +28,8 @@ from fbcc_ros.core.errors import FbccError
 from fbcc_ros.core.mapping_study import perturbed
 from fbcc_ros.core.payload import Payload
 from fbcc_ros.nodes import topics
-from fbcc_ros.nodes.convert import joints_to_msg, positions_from_msg, wrench_to_msg
+from fbcc_ros.nodes.cdr import encode_array
+from fbcc_ros.nodes.convert import joints_to_cdr, positions_from_cdr, wrench_to_cdr
 from fbcc_ros.nodes.diagnostics import counter_report, publish_diagnostics
 from fbcc_ros.nodes.params import CELL, Param, cell_from, declare, find_scenario, run
 
@@ -58,41 +60,60 @@ class MockCellNode(Node):
         self.dt = 1.0 / values["rate_hz"]
         self.frame = values["sensor_frame"]
         self.names = robot.joint_names
-        self.rejected = 0
+        self.counts = {"ticks": 0, "ticks_caught_up": 0, "ticks_skipped": 0,
+                       "commands_refused": 0}  # fmt: skip
+        self._start: float | None = None
         self.pub_joints = self.create_publisher(JointState, topics.JOINT_STATES, 10)
         self.pub_raw = self.create_publisher(WrenchStamped, topics.RAW_WRENCH, 10)
         self.pub_truth = self.create_publisher(Float64MultiArray, topics.TRUTH, 100)
-        self._truth = truth_message()
-        self.create_subscription(Float64MultiArray, topics.JOINT_COMMAND, self.on_command, 10)
+        # raw: CDR bytes, decoded by fbcc_ros.nodes.convert (no rclpy message objects at 1 kHz)
+        sub = self.create_subscription
+        sub(Float64MultiArray, topics.JOINT_COMMAND, self.on_command, 10, raw=True)
         self.create_timer(self.dt, self.on_tick)
-        refused = ("commands_refused",)
-        publish_diagnostics(
-            self, counter_report(lambda: {"commands_refused": self.rejected}, refused, "commands")
-        )
+        bad = ("ticks_skipped", "commands_refused")
+        publish_diagnostics(self, counter_report(lambda: self.counts, bad, "mock cell"))
 
-    def on_command(self, msg: Float64MultiArray) -> None:
+    def on_command(self, data: bytes) -> None:
         try:
-            self.cell.command(positions_from_msg(msg))
+            self.cell.command(positions_from_cdr(data))
         except FbccError as exc:
-            self.rejected += 1
+            self.counts["commands_refused"] += 1
             self.get_logger().error(f"joint command refused: {exc}", throttle_duration_sec=1.0)
 
     def on_tick(self) -> None:
-        sample = self.cell.step(self.dt)
+        """Steps the plant once per period elapsed since the first tick, as hardware would
+        tick: a timer callback that comes late (a busy executor) is caught up, not lost. More
+        than ``MAX_CATCH_UP`` periods behind, the older ones are skipped (the plant pauses for
+        them) and counted."""
+        clock = time.monotonic()
+        if self._start is None:
+            self._start = clock - self.dt
+        due = int((clock - self._start) / self.dt) - self.counts["ticks"]
+        if due > MAX_CATCH_UP:
+            self.counts["ticks_skipped"] += due - MAX_CATCH_UP
+            self.counts["ticks"] += due - MAX_CATCH_UP
+            due = MAX_CATCH_UP
+        self.counts["ticks_caught_up"] += max(due - 1, 0)
         now = self.get_clock().now().nanoseconds * 1e-9
-        self.pub_joints.publish(joints_to_msg(self.names, sample.q, sample.dq, now))
-        self.pub_raw.publish(wrench_to_msg(sample.raw, self.frame, now))
+        for late in range(due - 1, -1, -1):  # each sample stamped with its own period
+            self._tick(now - late * self.dt)
+            self.counts["ticks"] += 1
+
+    def _tick(self, now: float) -> None:
+        sample = self.cell.step(self.dt)
+        self.pub_joints.publish(joints_to_cdr(self.names, sample.q, sample.dq, now))
+        self.pub_raw.publish(wrench_to_cdr(sample.raw, self.frame, now))
         if self.pub_truth.get_subscription_count():
-            self._truth.data = [now, *sample.features.tolist(), *sample.response.tolist()]
-            self.pub_truth.publish(self._truth)
+            row = [now, *sample.features.tolist(), *sample.response.tolist()]
+            self.pub_truth.publish(encode_array(row, TRUTH_LAYOUT))
 
 
-def truth_message() -> Float64MultiArray:
-    """An empty truth sample, its layout labelled with the fields (topics.TRUTH_FIELDS)."""
-    n = len(topics.TRUTH_FIELDS)
-    label = " ".join(topics.TRUTH_FIELDS)
-    return Float64MultiArray(layout=MultiArrayLayout(dim=[MultiArrayDimension(label=label,
-                             size=n, stride=n)]))  # fmt: skip
+#: Periods a late tick catches up; beyond, the plant skips (20 ms: a VM stall, a GC pause).
+MAX_CATCH_UP = 20
+#: The truth's layout: one dimension labelled with the fields (topics.TRUTH_FIELDS).
+TRUTH_LAYOUT = [
+    (" ".join(topics.TRUTH_FIELDS), len(topics.TRUTH_FIELDS), len(topics.TRUTH_FIELDS))
+]
 
 
 def main() -> None:

@@ -19,6 +19,7 @@ from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import Trigger
 
 from fbcc_ros.nodes import topics
+from fbcc_ros.nodes.cdr import decode_array, decode_pose
 from fbcc_ros.nodes.convert import stamp_to_seconds
 
 
@@ -26,11 +27,12 @@ class Observer(Node):
     def __init__(self, probe: bool = False, **kwargs: Any) -> None:
         super().__init__("fbcc_observer", **kwargs)
         self.counts = {"compensated": 0, "features": 0, "commands": 0, "ik_failures": 0}
-        self.truth: list[list[float]] = []
+        self.truth: list[tuple[float, ...]] = []
         self.latency: list[float] = []
         self.phase, self.reason = "", ""
         sub = self.create_subscription
-        sub(Float64MultiArray, topics.TRUTH, lambda m: self.truth.append(list(m.data)), 100)
+        truth = self.truth.append
+        sub(Float64MultiArray, topics.TRUTH, lambda d: truth(decode_array(d)), 100, raw=True)
         sub(String, topics.PHASE, self.on_phase, topics.PHASE_QOS)
         # counting needs no decoding: raw (serialised) messages spare ~30 µs each
         for kind, topic, key in (
@@ -41,7 +43,7 @@ class Observer(Node):
         ):
             sub(kind, topic, self._counter(key), 10, raw=True)
         if probe:
-            sub(PoseStamped, topics.TCP_COMMAND, self.on_tcp_command, 10)
+            sub(PoseStamped, topics.TCP_COMMAND, self.on_tcp_command, 10, raw=True)
         self.start_client = self.create_client(Trigger, topics.START)
         self.abort_client = self.create_client(Trigger, topics.ABORT)
 
@@ -54,9 +56,9 @@ class Observer(Node):
     def on_phase(self, msg: String) -> None:
         self.phase, _, self.reason = (part.strip() for part in msg.data.partition(":"))
 
-    def on_tcp_command(self, msg: PoseStamped) -> None:
+    def on_tcp_command(self, data: bytes) -> None:
         # sensor stamp -> this TCP command: the whole chain, both ends on the system clock
-        self.latency.append(time.time() - stamp_to_seconds(msg.header.stamp))
+        self.latency.append(time.time() - stamp_to_seconds(decode_pose(data)[0]))
 
     def reset_counts(self) -> None:
         self.counts = dict.fromkeys(self.counts, 0)

@@ -150,12 +150,26 @@ def run(node_factory: Callable[[], Node]) -> None:
             raise SystemExit(2) from None
         executor = EventsExecutor()
         executor.add_node(node)
+        freeze_heap()
         while not stop and rclpy.ok():
             executor.spin_once(timeout_sec=0.1)
     finally:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+
+
+def freeze_heap() -> None:
+    """Once the nodes are built: everything alive now leaves the garbage collector's view.
+
+    A full collection otherwise walks every object of pinocchio, numpy and rclpy: one took
+    32 ms in the 1 kHz loop (32 periods lost), the middle generation up to 1.7 ms. Objects
+    made afterwards are collected as usual.
+    """
+    import gc
+
+    gc.collect()
+    gc.freeze()
 
 
 def find_scenario(value: str) -> Path:

@@ -1,0 +1,109 @@
+"""The hand-packed CDR against rclpy's own serialisation, both ways, for any values."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from geometry_msgs.msg import PoseStamped, WrenchStamped
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from rclpy.serialization import deserialize_message, serialize_message
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+
+from fbcc_ros.core.errors import InputError
+from fbcc_ros.nodes import cdr
+
+# lengths 0..9 cover every padding a string or a sequence can need before a double
+text = st.text(st.characters(codec="utf-8", exclude_characters="\x00"), max_size=9)
+real = st.floats(allow_nan=False, width=64)
+stamps = st.tuples(st.integers(-(2**31), 2**31 - 1), st.integers(0, 2**32 - 1))
+doubles = st.lists(real, max_size=9)
+uint32 = st.integers(0, 2**32 - 1)
+
+
+def same(a: object, b: object) -> bool:
+    return list(a) == list(b)  # type: ignore[call-overload]
+
+
+@settings(max_examples=150)
+@given(stamps, text, st.lists(real, min_size=6, max_size=6))
+def test_wrench_both_ways(stamp, frame, values):
+    msg = deserialize_message(cdr.encode_wrench(stamp, frame, values), WrenchStamped)
+    f, t = msg.wrench.force, msg.wrench.torque
+    assert (msg.header.stamp.sec, msg.header.stamp.nanosec, msg.header.frame_id) == (*stamp, frame)
+    assert same([f.x, f.y, f.z, t.x, t.y, t.z], values)
+    assert cdr.decode_wrench(serialize_message(msg)) == (stamp, frame, tuple(values))
+
+
+@settings(max_examples=150)
+@given(stamps, text, st.lists(real, min_size=7, max_size=7))
+def test_pose_both_ways(stamp, frame, values):
+    msg = deserialize_message(cdr.encode_pose(stamp, frame, values), PoseStamped)
+    p, q = msg.pose.position, msg.pose.orientation
+    assert (msg.header.stamp.sec, msg.header.stamp.nanosec, msg.header.frame_id) == (*stamp, frame)
+    assert same([p.x, p.y, p.z, q.x, q.y, q.z, q.w], values)
+    assert cdr.decode_pose(serialize_message(msg)) == (stamp, frame, tuple(values))
+
+
+@settings(max_examples=150)
+@given(stamps, text, st.lists(text, max_size=8), doubles, doubles, doubles)
+def test_joint_state_both_ways(stamp, frame, names, position, velocity, effort):
+    data = cdr.encode_joints(stamp, frame, names, position, velocity, effort)
+    msg = deserialize_message(data, JointState)
+    assert (msg.header.stamp.sec, msg.header.stamp.nanosec, msg.header.frame_id) == (*stamp, frame)
+    assert list(msg.name) == names
+    assert same(msg.position, position) and same(msg.velocity, velocity)
+    assert same(msg.effort, effort)
+    decoded = cdr.decode_joints(serialize_message(msg))
+    assert decoded == (stamp, frame, names, tuple(position), tuple(velocity), tuple(effort))
+
+
+@settings(max_examples=150)
+@given(doubles, st.lists(st.tuples(text, uint32, uint32), max_size=3))
+def test_float64_array_both_ways(data, dims):
+    msg = deserialize_message(cdr.encode_array(data, dims), Float64MultiArray)
+    assert same(msg.data, data)
+    assert [(d.label, d.size, d.stride) for d in msg.layout.dim] == dims
+    assert msg.layout.data_offset == 0
+    msg.layout.data_offset = 3  # read past, whatever it holds
+    assert cdr.decode_array(serialize_message(msg)) == tuple(data)
+
+
+def test_nan_and_infinity_pass_through():
+    stamp = (1, 2)
+    values = (math.nan, math.inf, -math.inf, 0.0, -0.0, 1e-308)
+    _, _, back = cdr.decode_wrench(cdr.encode_wrench(stamp, "s", values))
+    assert math.isnan(back[0]) and back[1:] == values[1:]
+    assert math.copysign(1.0, back[4]) == -1.0
+
+
+def test_a_real_joint_state_decodes_like_rclpy():
+    msg = JointState(name=[f"lbr_A{i}" for i in range(1, 8)], position=[0.1 * i for i in range(7)])
+    msg.header.frame_id = "base"
+    _, frame, names, position, velocity, effort = cdr.decode_joints(serialize_message(msg))
+    assert (frame, names, list(position)) == ("base", list(msg.name), list(msg.position))
+    assert velocity == effort == ()
+
+
+@pytest.mark.parametrize(
+    "decode, kind",
+    [
+        (cdr.decode_wrench, "WrenchStamped"),
+        (cdr.decode_pose, "PoseStamped"),
+        (cdr.decode_joints, "JointState"),
+        (cdr.decode_array, "Float64MultiArray"),
+    ],
+)
+def test_garbled_bytes_are_an_input_error_naming_the_type(decode, kind):
+    whole = {
+        "WrenchStamped": cdr.encode_wrench((0, 0), "frame", [1.0] * 6),
+        "PoseStamped": cdr.encode_pose((0, 0), "frame", [1.0] * 7),
+        "JointState": cdr.encode_joints((0, 0), "f", ["a", "b"], [1.0, 2.0]),
+        "Float64MultiArray": cdr.encode_array([1.0, 2.0], [("x", 2, 2)]),
+    }[kind]
+    with pytest.raises(InputError, match=kind):
+        decode(whole[: len(whole) - 5])
+    with pytest.raises(InputError, match="little-endian CDR"):
+        decode(b"\x00\x00" + whole[2:])  # big-endian encapsulation
