@@ -112,7 +112,8 @@ def test_bringup_command_reports_and_exits_zero(tmp_path: Path, capfd) -> None:
     # capfd, not capsys: the EventsExecutor enables faulthandler, which needs a real stderr
     assert bringup_main([str(SCENARIO), "--out", str(tmp_path)]) == 0
     out = capfd.readouterr().out
-    assert "assembled: phase inserted" in out and (tmp_path / "summary.json").exists()
+    assert "assembled: phase inserted" in out, out
+    assert (tmp_path / "summary.json").exists()
 
 
 def test_bringup_bad_input_exits_two(capsys) -> None:
