@@ -40,6 +40,7 @@ setup(
             "kinematics = fbcc_ros.nodes.kinematics:main",
             "fbcc_controller = fbcc_ros.nodes.fbcc_controller:main",
             "mock_cell = fbcc_ros.nodes.mock_cell:main",
+            "fbcc_record = fbcc_ros.nodes.fbcc_record:main",
         ],
     },
 )

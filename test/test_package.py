@@ -25,6 +25,7 @@ EXECUTABLES = (
     "kinematics",
     "fbcc_controller",
     "mock_cell",
+    "fbcc_record",
 )
 
 

@@ -10,10 +10,16 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from fbcc_ros.nodes import dynamic_compensation, fbcc_controller, kinematics, mock_cell
+from fbcc_ros.nodes import (
+    dynamic_compensation,
+    fbcc_controller,
+    fbcc_record,
+    kinematics,
+    mock_cell,
+)
 from fbcc_ros.nodes.params import Param
 
-MODULES = (mock_cell, dynamic_compensation, kinematics, fbcc_controller)
+MODULES = (mock_cell, dynamic_compensation, kinematics, fbcc_controller, fbcc_record)
 
 
 def _range(p: Param) -> str:

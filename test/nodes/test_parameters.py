@@ -170,3 +170,10 @@ def test_the_parameter_reference_is_generated_from_the_tables() -> None:
     assert committed == markdown(), "run: python -m fbcc_ros.nodes.reference"
     for _, table in NODES.values():
         assert all(f"| `{p.name}` |" in committed for p in table)
+
+
+def test_the_recorder_yaml_holds_exactly_its_declared_defaults() -> None:
+    # not in NODES: building a recorder creates its bag folder, so it has its own tests
+    from fbcc_ros.nodes.fbcc_record import TABLE as RECORD
+
+    assert _yaml("fbcc_record") == {p.name: p.default for p in RECORD}

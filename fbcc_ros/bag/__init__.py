@@ -1,0 +1,1 @@
+"""mcap bags, rosbag2-compatible: schemas, writing, reading (a truncated bag included)."""

@@ -1,0 +1,135 @@
+"""Writes a rosbag2 bag folder: ``<name>_0.mcap`` (profile ros2, zstd chunks) + metadata.yaml.
+
+Crash safety: the chunks are small (256 KiB, about 0.3 s of the cell's topics) and the file
+is flushed as soon as a chunk lands in it, so a recorder killed mid-write leaves every finished
+chunk on disk;
+:func:`fbcc_ros.bag.reader.open_bag` reads such a bag up to its last whole chunk and says it is
+truncated. ``metadata.yaml`` (version 9, as rosbag2 Jazzy writes it) is written on close, and
+rewritten at each ``checkpoint`` so a killed run still has one.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import yaml
+from mcap.writer import CompressionType, Writer
+
+from fbcc_ros.bag.schema import message_definition, qos_profiles, type_hash
+from fbcc_ros.core.errors import InputError
+
+CHUNK_SIZE = 256 * 1024
+METADATA_VERSION = 9  # rosbag2 on Jazzy
+
+
+class BagWriter:
+    """``add_topic`` once per topic, then ``write`` serialised (CDR) messages; ``close``."""
+
+    def __init__(self, folder: Path, chunk_size: int = CHUNK_SIZE) -> None:
+        self.folder = Path(folder)
+        if self.folder.exists() and any(self.folder.iterdir()):
+            raise InputError("bag folder", str(self.folder), "a new or empty folder")
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self.path = self.folder / f"{self.folder.name}_0.mcap"
+        self._file = self.path.open("wb")
+        self._flushed = 0
+        self._mcap = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
+        self._mcap.start(profile="ros2", library="fbcc_ros")
+        self._schemas: dict[str, int] = {}
+        self.topics: dict[str, dict[str, Any]] = {}  # name -> metadata and count
+        self._channels: dict[str, int] = {}
+        self.start_ns: int | None = None
+        self.end_ns = 0
+        self.closed = False
+
+    def add_topic(self, topic: str, type_name: str, qos: list[Any]) -> None:
+        """``qos``: the publishers' offered rclpy QoSProfiles."""
+        if topic in self._channels:
+            return
+        if type_name not in self._schemas:
+            self._schemas[type_name] = self._mcap.register_schema(
+                name=type_name, encoding="ros2msg", data=message_definition(type_name).encode()
+            )
+        profiles = qos_profiles(qos)
+        self._channels[topic] = self._mcap.register_channel(
+            topic=topic,
+            message_encoding="cdr",
+            schema_id=self._schemas[type_name],
+            metadata={
+                "offered_qos_profiles": yaml.safe_dump(profiles, sort_keys=False),
+                "topic_type_hash": type_hash(type_name),
+            },
+        )
+        self.topics[topic] = {"type": type_name, "qos": profiles, "count": 0}
+
+    def write(self, topic: str, data: bytes, log_time_ns: int | None = None) -> None:
+        """One CDR message, received at ``log_time_ns`` (now if None)."""
+        t = time.time_ns() if log_time_ns is None else log_time_ns
+        self._mcap.add_message(self._channels[topic], log_time=t, data=data, publish_time=t)
+        if self._file.tell() != self._flushed:  # a chunk was written: to disk with it
+            self._file.flush()
+            self._flushed = self._file.tell()
+        self.topics[topic]["count"] += 1
+        self.start_ns = t if self.start_ns is None else min(self.start_ns, t)
+        self.end_ns = max(self.end_ns, t)
+
+    def checkpoint(self) -> None:
+        """Rewrites metadata.yaml with the counts so far (for a run that is killed later)."""
+        self._write_metadata()
+
+    def close(self) -> None:
+        if self.closed:
+            return
+        self.closed = True
+        self._mcap.finish()
+        self._file.close()
+        self._write_metadata()
+
+    def _write_metadata(self) -> None:
+        start = self.start_ns or 0
+        duration = self.end_ns - start if self.start_ns is not None else 0
+        count = sum(t["count"] for t in self.topics.values())
+        info = {
+            "version": METADATA_VERSION,
+            "storage_identifier": "mcap",
+            "duration": {"nanoseconds": duration},
+            "starting_time": {"nanoseconds_since_epoch": start},
+            "message_count": count,
+            "topics_with_message_count": [
+                {
+                    "topic_metadata": {
+                        "name": name,
+                        "type": t["type"],
+                        "serialization_format": "cdr",
+                        "offered_qos_profiles": t["qos"],
+                        "type_description_hash": type_hash(t["type"]),
+                    },
+                    "message_count": t["count"],
+                }
+                for name, t in self.topics.items()
+            ],
+            "compression_format": "",
+            "compression_mode": "",
+            "relative_file_paths": [self.path.name],
+            "files": [
+                {
+                    "path": self.path.name,
+                    "starting_time": {"nanoseconds_since_epoch": start},
+                    "duration": {"nanoseconds": duration},
+                    "message_count": count,
+                }
+            ],
+            "custom_data": {"writer": "fbcc_ros", "closed": str(self.closed).lower()},
+            "ros_distro": "jazzy",
+        }
+        tmp = self.folder / "metadata.yaml.tmp"
+        tmp.write_text(yaml.safe_dump({"rosbag2_bagfile_information": info}, sort_keys=False))
+        tmp.replace(self.folder / "metadata.yaml")
+
+    def __enter__(self) -> BagWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

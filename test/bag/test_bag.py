@@ -1,0 +1,132 @@
+"""The bag writer and reader against two independent readers (rosbags, the mcap library)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+from geometry_msgs.msg import WrenchStamped
+from mcap.reader import make_reader
+from rclpy.qos import DurabilityPolicy, QoSProfile
+from rclpy.serialization import serialize_message
+from rosbags.highlevel import AnyReader
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+
+from fbcc_ros.bag.reader import read_bag
+from fbcc_ros.bag.schema import message_definition
+from fbcc_ros.bag.writer import BagWriter
+from fbcc_ros.core.errors import InputError
+
+T0 = 1_790_000_000_000_000_000  # ns since the epoch
+
+
+def _wrench(i: int) -> WrenchStamped:
+    msg = WrenchStamped()
+    msg.header.frame_id = "hole"
+    msg.header.stamp.sec, msg.header.stamp.nanosec = 1_790_000_000, i * 1_000_000
+    msg.wrench.force.x, msg.wrench.torque.y = 0.5 * i, -0.01 * i
+    return msg
+
+
+def _joints(i: int) -> JointState:
+    return JointState(name=["a1", "a2"], position=[0.1 * i, -0.2 * i], velocity=[1.0, 2.0])
+
+
+def _write(folder: Path, n: int = 300) -> None:
+    with BagWriter(folder, chunk_size=4096) as bag:
+        bag.add_topic("/ft_sensor/raw", "geometry_msgs/msg/WrenchStamped", [QoSProfile(depth=10)])
+        bag.add_topic("/joint_states", "sensor_msgs/msg/JointState", [QoSProfile(depth=10)])
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        bag.add_topic("/fbcc/phase", "std_msgs/msg/String", [latched])
+        for i in range(n):
+            bag.write("/ft_sensor/raw", serialize_message(_wrench(i)), T0 + i * 1_000_000)
+            bag.write("/joint_states", serialize_message(_joints(i)), T0 + i * 1_000_000 + 1)
+        bag.write("/fbcc/phase", serialize_message(String(data="inserted")), T0 + n * 1_000_000)
+
+
+def test_rosbags_reads_the_folder_with_types_times_and_values(tmp_path: Path) -> None:
+    folder = tmp_path / "run"
+    _write(folder)
+    with AnyReader([folder]) as reader:
+        counts = {c.topic: c.msgcount for c in reader.connections}
+        types = {c.topic: c.msgtype for c in reader.connections}
+        assert counts == {"/ft_sensor/raw": 300, "/joint_states": 300, "/fbcc/phase": 1}
+        assert types["/joint_states"] == "sensor_msgs/msg/JointState"
+        wrenches = [
+            (t, reader.deserialize(raw, c.msgtype))
+            for c, t, raw in reader.messages()
+            if c.topic == "/ft_sensor/raw"
+        ]
+    assert [t for t, _ in wrenches] == [T0 + i * 1_000_000 for i in range(300)]
+    last = wrenches[-1][1]
+    assert last.wrench.force.x == 0.5 * 299 and last.header.frame_id == "hole"
+    assert last.header.stamp.nanosec == 299_000_000
+
+
+def test_the_mcap_library_reads_schemas_channels_and_messages(tmp_path: Path) -> None:
+    folder = tmp_path / "run"
+    _write(folder, n=50)
+    with (folder / "run_0.mcap").open("rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        assert summary is not None and reader.get_header().profile == "ros2"
+        schemas = {s.name: s for s in summary.schemas.values()}
+        wrench = schemas["geometry_msgs/msg/WrenchStamped"]
+        assert wrench.encoding == "ros2msg"
+        assert wrench.data.decode() == message_definition("geometry_msgs/msg/WrenchStamped")
+        channel = next(c for c in summary.channels.values() if c.topic == "/fbcc/phase")
+        assert channel.message_encoding == "cdr"
+        assert channel.metadata["topic_type_hash"].startswith("RIHS01_")
+        qos = yaml.safe_load(channel.metadata["offered_qos_profiles"])
+        assert qos[0]["durability"] == "transient_local" and qos[0]["depth"] == 1
+        assert all(c.compression == "zstd" for c in summary.chunk_indexes)
+        data = [m.data for _, c, m in reader.iter_messages(topics=["/joint_states"])]
+    assert data[7] == serialize_message(_joints(7))
+
+
+def test_our_reader_and_metadata_agree_with_what_was_written(tmp_path: Path) -> None:
+    folder = tmp_path / "run"
+    _write(folder, n=120)
+    bag = read_bag(folder)
+    assert bag.truncated == ""
+    assert bag.counts == {"/ft_sensor/raw": 120, "/joint_states": 120, "/fbcc/phase": 1}
+    assert bag.topics["/fbcc/phase"] == "std_msgs/msg/String"
+    meta = yaml.safe_load((folder / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert meta["version"] == 9 and meta["storage_identifier"] == "mcap"
+    assert meta["message_count"] == 241
+    assert meta["starting_time"]["nanoseconds_since_epoch"] == T0
+    assert meta["duration"]["nanoseconds"] == 120 * 1_000_000
+
+
+def test_a_bag_cut_mid_chunk_reads_up_to_its_last_whole_chunk(tmp_path: Path) -> None:
+    folder = tmp_path / "run"
+    _write(folder, n=2000)
+    path = folder / "run_0.mcap"
+    whole = path.read_bytes()
+    path.write_bytes(whole[: len(whole) // 2])
+    bag = read_bag(path)
+    assert bag.truncated.startswith("cut short")
+    got = bag.counts["/ft_sensor/raw"]
+    assert 200 < got < 2000  # some chunks survived, not all
+    kept = [m.data for m in bag.of("/ft_sensor/raw")]
+    assert kept == [serialize_message(_wrench(i)) for i in range(got)]  # in order, intact
+
+
+def test_missing_and_foreign_files_are_input_errors(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match=r"an existing \.mcap file or bag folder"):
+        read_bag(tmp_path / "nope.mcap")
+    text = tmp_path / "notes.mcap"
+    text.write_text("not a bag")
+    with pytest.raises(InputError, match="mcap magic"):
+        read_bag(text)
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(InputError, match=r"exactly one \.mcap"):
+        read_bag(tmp_path / "empty")
+
+
+def test_a_bag_folder_is_never_overwritten(tmp_path: Path) -> None:
+    _write(tmp_path / "run", n=1)
+    with pytest.raises(InputError, match="a new or empty folder"):
+        BagWriter(tmp_path / "run")
