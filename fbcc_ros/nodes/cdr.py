@@ -154,18 +154,25 @@ def _decoding(what: str) -> Callable[[Callable[P, T]], Callable[P, T]]:
     return wrap
 
 
-# --- geometry_msgs/WrenchStamped: header, force (3 doubles), torque (3 doubles)
+# --- geometry_msgs/WrenchStamped and PoseStamped: a header, then a fixed run of doubles
+#     (force, torque: 6; position, orientation x y z w: 7)
 
 
 @lru_cache(maxsize=16)
-def _wrench_layout(frame: bytes) -> struct.Struct:
-    return _Layout().header(frame).primitive("d", 8, 6).struct()
+def _stamped_layout(frame: bytes, count: int) -> struct.Struct:
+    return _Layout().header(frame).primitive("d", 8, count).struct()
+
+
+def _encode_stamped(stamp: Stamp, frame: str, values: Sequence[float], count: int) -> bytes:
+    if len(values) != count:
+        raise InputError("values", list(values), f"{count} numbers")
+    name = frame.encode()
+    return _stamped_layout(name, count).pack(ENCAPSULATION, *stamp, len(name) + 1, name, *values)
 
 
 def encode_wrench(stamp: Stamp, frame: str, wrench: Sequence[float]) -> bytes:
     """``wrench`` = (fx, fy, fz, tx, ty, tz)."""
-    name = frame.encode()
-    return _wrench_layout(name).pack(ENCAPSULATION, *stamp, len(name) + 1, name, *wrench)
+    return _encode_stamped(stamp, frame, wrench, 6)
 
 
 @_decoding("geometry_msgs/WrenchStamped")
@@ -174,18 +181,9 @@ def decode_wrench(data: bytes) -> tuple[Stamp, str, tuple[float, ...]]:
     return _fixed(data, "geometry_msgs/WrenchStamped", _SIX)
 
 
-# --- geometry_msgs/PoseStamped: header, position (3 doubles), orientation (x, y, z, w)
-
-
-@lru_cache(maxsize=16)
-def _pose_layout(frame: bytes) -> struct.Struct:
-    return _Layout().header(frame).primitive("d", 8, 7).struct()
-
-
 def encode_pose(stamp: Stamp, frame: str, pose: Sequence[float]) -> bytes:
     """``pose`` = (x, y, z, qx, qy, qz, qw)."""
-    name = frame.encode()
-    return _pose_layout(name).pack(ENCAPSULATION, *stamp, len(name) + 1, name, *pose)
+    return _encode_stamped(stamp, frame, pose, 7)
 
 
 @_decoding("geometry_msgs/PoseStamped")

@@ -27,24 +27,34 @@ def same(a: object, b: object) -> bool:
     return list(a) == list(b)  # type: ignore[call-overload]
 
 
-@settings(max_examples=150)
-@given(stamps, text, st.lists(real, min_size=6, max_size=6))
-def test_wrench_both_ways(stamp, frame, values):
-    msg = deserialize_message(cdr.encode_wrench(stamp, frame, values), WrenchStamped)
+def _wrench_values(msg: WrenchStamped) -> list[float]:
     f, t = msg.wrench.force, msg.wrench.torque
-    assert (msg.header.stamp.sec, msg.header.stamp.nanosec, msg.header.frame_id) == (*stamp, frame)
-    assert same([f.x, f.y, f.z, t.x, t.y, t.z], values)
-    assert cdr.decode_wrench(serialize_message(msg)) == (stamp, frame, tuple(values))
+    return [f.x, f.y, f.z, t.x, t.y, t.z]
 
 
-@settings(max_examples=150)
-@given(stamps, text, st.lists(real, min_size=7, max_size=7))
-def test_pose_both_ways(stamp, frame, values):
-    msg = deserialize_message(cdr.encode_pose(stamp, frame, values), PoseStamped)
+def _pose_values(msg: PoseStamped) -> list[float]:
     p, q = msg.pose.position, msg.pose.orientation
+    return [p.x, p.y, p.z, q.x, q.y, q.z, q.w]
+
+
+STAMPED = {
+    "wrench": (cdr.encode_wrench, cdr.decode_wrench, WrenchStamped, _wrench_values, 6),
+    "pose": (cdr.encode_pose, cdr.decode_pose, PoseStamped, _pose_values, 7),
+}
+
+
+@pytest.mark.parametrize("kind", STAMPED)
+@settings(max_examples=150)
+@given(stamp=stamps, frame=text, values=st.lists(real, min_size=7, max_size=7))
+def test_stamped_wrench_and_pose_both_ways(kind, stamp, frame, values):
+    encode, decode, msg_type, values_of, count = STAMPED[kind]
+    values = values[:count]
+    msg = deserialize_message(encode(stamp, frame, values), msg_type)
     assert (msg.header.stamp.sec, msg.header.stamp.nanosec, msg.header.frame_id) == (*stamp, frame)
-    assert same([p.x, p.y, p.z, q.x, q.y, q.z, q.w], values)
-    assert cdr.decode_pose(serialize_message(msg)) == (stamp, frame, tuple(values))
+    assert same(values_of(msg), values)
+    assert decode(serialize_message(msg)) == (stamp, frame, tuple(values))
+    with pytest.raises(InputError, match=f"{count} numbers"):
+        encode(stamp, frame, [*values, 0.0])
 
 
 @settings(max_examples=150)
