@@ -56,8 +56,19 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: The controller's stale-input timeout when each node is its own process. Four processes on two
+#: cores deliver with p99 latencies of 15-40 ms (docs/nodes.md), and a gap of 51 ms faulted a
+#: CI run; in one process the default (50 ms) holds.
+PROCESSES_TIMEOUT = 0.25
+
+
 def cell_nodes(
-    path: str, sc: Any, law: str, draw_geometry: bool = False, seed: int = 0
+    path: str,
+    sc: Any,
+    law: str,
+    draw_geometry: bool = False,
+    seed: int = 0,
+    processes: bool = False,
 ) -> list[NodeSpec]:
     """The four nodes of the hardware-free cell, with the bringup's parameters."""
     from fbcc_ros.nodes.dynamic_compensation import DynamicCompensationNode
@@ -75,7 +86,8 @@ def cell_nodes(
         NodeSpec("kinematics", KinematicsNode,
                  {"peg_radius": sc.geometry.peg_radius, "rate_hz": sc.rate_hz}),
         NodeSpec("fbcc_controller", FbccControllerNode,
-                 {"scenario": path, "law": law, "rate_hz": sc.rate_hz}),
+                 {"scenario": path, "law": law, "rate_hz": sc.rate_hz,
+                  **({"timeout": PROCESSES_TIMEOUT} if processes else {})}),
     ]  # fmt: skip
 
 
@@ -113,7 +125,7 @@ def run_cell(
 
     path = str(find_scenario(scenario_path))
     sc = scenario_io.load(path)
-    specs = cell_nodes(path, sc, law, draw_geometry, seed)
+    specs = cell_nodes(path, sc, law, draw_geometry, seed, processes)
     with CellRun(specs, processes=processes, log_dir=log_dir) as run:
         start_insertion(run, timeout=30.0 if processes else 10.0)
         obs = run.observer

@@ -93,7 +93,7 @@ def measure(chain: str, seconds: float, processes: bool = False) -> LoopFigures:
 
     path = str(find_scenario(SCENARIO))
     sc = scenario_io.load(path)
-    specs = cell_nodes(path, sc, "fbcc")
+    specs = cell_nodes(path, sc, "fbcc", processes=processes)
     if chain == "bare":
         if processes:
             raise ValueError("the bare chain runs in one process only")
