@@ -79,8 +79,7 @@ class _Reader:
     """Reads one serialised message front to back."""
 
     def __init__(self, data: bytes, what: str) -> None:
-        if data[:2] != ENCAPSULATION[:2]:
-            raise InputError(what, bytes(data[:4]).hex(), "little-endian CDR (00 01 ...)")
+        _check_encapsulation(data, what)
         self.data = data
         self.pos = 4
 
@@ -102,15 +101,20 @@ class _Reader:
         stamp, frame, self.pos = _header(self.data)
         return stamp, frame
 
-    def doubles(self, count: int | None = None) -> tuple[float, ...]:
-        """``count`` doubles (a fixed-size field), or a sequence when ``count`` is None."""
-        n = self.uint32() if count is None else count
+    def doubles(self) -> tuple[float, ...]:
+        """A sequence of doubles."""
+        n = self.uint32()
         if not n:
             return ()
         self._align(8)
         values = struct.unpack_from(f"<{n}d", self.data, self.pos)
         self.pos += 8 * n
         return values
+
+
+def _check_encapsulation(data: bytes, what: str) -> None:
+    if data[:2] != ENCAPSULATION[:2]:
+        raise InputError(what, bytes(data[:4]).hex(), "little-endian CDR (00 01 ...)")
 
 
 def _string(data: bytes, pos: int) -> tuple[str, int]:
@@ -131,8 +135,7 @@ def _header(data: bytes) -> tuple[Stamp, str, int]:
 
 def _fixed(data: bytes, what: str, doubles: struct.Struct) -> tuple[Stamp, str, tuple[float, ...]]:
     """A header then a fixed run of doubles (WrenchStamped, PoseStamped): one unpack each."""
-    if data[:2] != ENCAPSULATION[:2]:
-        raise InputError(what, bytes(data[:4]).hex(), "little-endian CDR (00 01 ...)")
+    _check_encapsulation(data, what)
     stamp, frame, end = _header(data)
     return stamp, frame, doubles.unpack_from(data, end + -(end - 4) % 8)
 
