@@ -96,10 +96,13 @@ def start_insertion(run: CellRun, timeout: float) -> None:
 
     A service response can be lost while DDS is still matching the client (seen once here):
     the latched phase then says whether the request got through, and the call is repeated.
+    A refusal is repeated too, half a second later: with each node its own process, a start-up
+    hiccup of the kinematics left the controller without recent features once in CI.
     """
     counts = run.observer.counts
     run.spin_until(lambda: counts["compensated"] > 0 and counts["features"] > 0, timeout,
                    "the cell did not come up (no compensated wrench or no features)")  # fmt: skip
+    refused = ""
     for _ in range(3):
         try:
             answer = run.call(run.observer.start_client, timeout=5.0)
@@ -108,7 +111,10 @@ def start_insertion(run: CellRun, timeout: float) -> None:
         if run.observer.phase == "inserting" or (answer is not None and answer.success):
             return
         if answer is not None:
-            raise FbccError(f"could not start: {answer.message}")
+            refused = answer.message
+            run.spin_for(0.5, lambda _: None)
+    if refused:
+        raise FbccError(f"could not start: {refused}")
     raise FbccError("no answer from fbcc/start, three times")
 
 
