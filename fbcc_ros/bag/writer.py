@@ -24,13 +24,18 @@ CHUNK_SIZE = 256 * 1024
 METADATA_VERSION = 9  # rosbag2 on Jazzy
 
 
+def check_new_folder(folder: Path) -> Path:
+    """``folder`` if it is new or empty: a bag never overwrites anything."""
+    if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
+        raise InputError("bag folder", str(folder), "a new or empty folder")
+    return folder
+
+
 class BagWriter:
     """``add_topic`` once per topic, then ``write`` serialised (CDR) messages; ``close``."""
 
     def __init__(self, folder: Path, chunk_size: int = CHUNK_SIZE) -> None:
-        self.folder = Path(folder)
-        if self.folder.exists() and any(self.folder.iterdir()):
-            raise InputError("bag folder", str(self.folder), "a new or empty folder")
+        self.folder = check_new_folder(Path(folder))
         self.folder.mkdir(parents=True, exist_ok=True)
         self.path = self.folder / f"{self.folder.name}_0.mcap"
         self._file = self.path.open("wb")

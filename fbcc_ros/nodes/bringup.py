@@ -1,7 +1,7 @@
 """fbcc_bringup: the whole hardware-free cell, one assembly, a summary, an exit status.
 
     fbcc_bringup [SCENARIO.yaml] [--law fbcc|admittance|none] [--out DIR] [--draw-geometry]
-                 [--seed N] [--processes]
+                 [--seed N] [--processes] [--bag FOLDER | --no-record]
 
 Starts the four nodes (mock_cell, dynamic_compensation, kinematics, fbcc_controller) in one
 process on rclpy's EventsExecutor, or with ``--processes`` each in its own process, over real
@@ -9,8 +9,11 @@ DDS. The compensation tares the sensor (no contact yet), then the insertion is s
 the controller's ``fbcc/start`` service, and the cell runs for the scenario's duration. The
 true features and responses the mock publishes (``mock_cell/truth``) are scored exactly as
 ``fbcc-sim`` scores a simulation; the summary (with the CPU each node used) is printed and
-written to DIR/summary.json. Exit status 0 when the assembly succeeded, 1 when it did not (or
-the controller faulted), 2 on bad input or a cell that does not come up.
+written to DIR/summary.json. The session is recorded (``fbcc_record``, in its own process so
+its disk writes stay off the loop's core) into ``DIR/bags/fbcc_<date>_<time>`` (``./bags/...``
+without ``--out``), or into ``--bag``; the insertion starts only once the recorder hears every
+topic, and the summary says what the bag holds. Exit status 0 when the assembly succeeded, 1
+when it did not (or the controller faulted), 2 on bad input or a cell that does not come up.
 """
 
 from __future__ import annotations
@@ -23,10 +26,13 @@ from typing import Any
 
 import numpy as np
 
+from fbcc_ros.bag.writer import check_new_folder
 from fbcc_ros.core import scenario as scenario_io
 from fbcc_ros.core.compensation import acting_point_of
 from fbcc_ros.core.errors import FbccError
 from fbcc_ros.core.simulation import score
+from fbcc_ros.nodes import topics
+from fbcc_ros.nodes.fbcc_record import CELL_TOPICS, default_folder
 from fbcc_ros.nodes.harness import CellRun, NodeSpec
 
 DEFAULT_SCENARIO = "config/scenarios/bringup_interference.yaml"
@@ -53,6 +59,11 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="each node in its own process (as ros2 run would start them)",
     )
+    record = parser.add_mutually_exclusive_group()
+    record.add_argument("--bag", type=Path, default=None,
+                        help="bag folder to record into (new or empty; default "
+                        "DIR/bags/fbcc_<date>_<time>)")  # fmt: skip
+    record.add_argument("--no-record", action="store_true", help="do not record a bag")
     return parser
 
 
@@ -91,6 +102,44 @@ def cell_nodes(
     ]  # fmt: skip
 
 
+#: What the bringup records: the cell's topics but the two computed only while heard
+#: (``fbcc-report`` derives the contact state from the recorded wrench and features, and a TCP
+#: command from the command); recording them costs the loop ~10 % of its cycles.
+BRINGUP_TOPICS = [t for t in CELL_TOPICS if t not in (topics.CONTACT_STATE, topics.TCP_COMMAND)]
+
+
+def recorder(bag: Path) -> NodeSpec:
+    """The cell's recorder, in its own process, writing ``bag``."""
+    from fbcc_ros.nodes.fbcc_record import FbccRecordNode
+
+    return NodeSpec("fbcc_record", FbccRecordNode, {"out": str(bag), "topics": BRINGUP_TOPICS},
+                    own_process=True)  # fmt: skip
+
+
+def wait_recording(run: CellRun, timeout: float) -> None:
+    """Waits until the recorder subscribes every topic it records: nothing of the insertion is
+    lost."""
+    names = [run.observer.resolve_topic_name(t) for t in BRINGUP_TOPICS]
+    graph = run.observer.get_subscriptions_info_by_topic
+
+    def missing() -> list[str]:
+        return [n for n in names if all(s.node_name != "fbcc_record" for s in graph(n))]
+
+    try:
+        run.spin_until(lambda: not missing(), timeout, "the recorder did not subscribe")
+    except FbccError as exc:
+        raise FbccError(f"{exc}: {missing()} not recorded") from exc
+
+
+def bag_contents(bag: Path) -> dict[str, Any]:
+    """What the recorded bag holds, read back: path, messages per topic, truncated or not."""
+    from fbcc_ros.bag.reader import read_bag
+
+    recorded = read_bag(bag)
+    messages = {topic: recorded.counts[topic] for topic in recorded.topics}
+    return {"path": str(bag), "messages": messages, "truncated": recorded.truncated}
+
+
 def start_insertion(run: CellRun, timeout: float) -> None:
     """Waits for the tared sensor and the features, then starts through ``fbcc/start``.
 
@@ -125,14 +174,20 @@ def run_cell(
     seed: int = 0,
     processes: bool = False,
     log_dir: Path | None = None,
+    bag: Path | None = None,
 ) -> dict[str, Any]:
-    """One assembly through the ROS graph; returns the summary (with CPU per node)."""
+    """One assembly through the ROS graph, recorded into ``bag`` if given; returns the summary
+    (with CPU per node, and what the bag holds)."""
     from fbcc_ros.nodes.params import find_scenario
 
     path = str(find_scenario(scenario_path))
     sc = scenario_io.load(path)
     specs = cell_nodes(path, sc, law, draw_geometry, seed, processes)
+    if bag is not None:
+        specs.append(recorder(bag))
     with CellRun(specs, processes=processes, log_dir=log_dir) as run:
+        if bag is not None:
+            wait_recording(run, timeout=30.0)
         start_insertion(run, timeout=30.0 if processes else 10.0)
         obs = run.observer
         first = len(obs.truth)
@@ -163,6 +218,8 @@ def run_cell(
         cpu_per_node={k: round(v, 4) for k, v in cpu.items()},
     )
     summary["success"] = bool(summary["success"]) and phase not in ("fault", "aborted")
+    if bag is not None:
+        summary["bag"] = bag_contents(bag)
     return summary
 
 
@@ -180,7 +237,13 @@ def main(argv: list[str] | None = None) -> int:
             flush=True,
         )
         logs = args.out / "logs" if args.out else None
-        summary = run_cell(args.scenario, law, args.draw_geometry, args.seed, args.processes, logs)
+        bag = None if args.no_record else args.bag or default_folder(args.out or Path("."))
+        if bag is not None:
+            check_new_folder(bag)
+            print(f"recording into {bag}", flush=True)
+        summary = run_cell(
+            args.scenario, law, args.draw_geometry, args.seed, args.processes, logs, bag
+        )
     except FbccError as exc:
         print(f"fbcc_bringup: {exc}", file=sys.stderr)
         return 2
@@ -194,6 +257,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     cpu = ", ".join(f"{k} {v:.0%}" for k, v in summary["cpu_per_node"].items())
     print(f"CPU (share of one core): {cpu}")
+    if "bag" in summary:
+        recorded = summary["bag"]
+        cut = f" (TRUNCATED: {recorded['truncated']})" if recorded["truncated"] else ""
+        print(f"recorded {sum(recorded['messages'].values())} messages on "
+              f"{len(recorded['messages'])} topics into {recorded['path']}{cut}")  # fmt: skip
     if args.out:
         args.out.mkdir(parents=True, exist_ok=True)
         (args.out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")

@@ -271,3 +271,11 @@ def decode_array(data: bytes) -> tuple[float, ...]:
         reader.uint32()  # stride
     reader.uint32()  # data_offset
     return reader.doubles()
+
+
+# --- std_msgs/String (the phase, the contact state, the kinematics status in a bag)
+
+
+@_decoding("std_msgs/String")
+def decode_string(data: bytes) -> str:
+    return _Reader(data, "std_msgs/String").string()

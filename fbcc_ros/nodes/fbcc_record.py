@@ -42,8 +42,9 @@ TABLE = (
 )  # fmt: skip
 
 
-def default_folder() -> Path:
-    return Path("bags") / datetime.now().strftime("fbcc_%Y%m%d_%H%M%S")
+def default_folder(root: Path = Path(".")) -> Path:
+    """``root/bags/fbcc_<date>_<time>``: a new folder per session, as ``ros2 bag record``."""
+    return root / "bags" / datetime.now().strftime("fbcc_%Y%m%d_%H%M%S")
 
 
 class FbccRecordNode(Node):

@@ -27,11 +27,13 @@ from fbcc_ros.nodes.params import freeze_heap
 @dataclass
 class NodeSpec:
     """A node to run: its name (and module ``fbcc_ros.nodes.<name>``), its class for the
-    in-process mode, and its parameter overrides."""
+    in-process mode, its parameter overrides, and whether it runs in its own process even when
+    the others share this one (the recorder: its disk writes stay off the loop's core)."""
 
     name: str
     factory: Callable[..., Any]
     parameters: dict[str, Any] = field(default_factory=dict)
+    own_process: bool = False
 
 
 def ros_args(parameters: dict[str, Any]) -> list[str]:
@@ -69,12 +71,13 @@ class CellRun:
         self._callback_cpu: dict[str, int] = {}
         self._time_callbacks("observer", self.observer)
         self.executor.add_node(self.observer)
-        if processes and log_dir is None:  # the nodes' output, for the message if one dies
+        # the spawned nodes' output, for the message if one dies
+        if log_dir is None and any(processes or spec.own_process for spec in specs):
             log_dir = Path(tempfile.mkdtemp(prefix="fbcc_cell_"))
         self.log_dir = log_dir or Path(".")
         try:
             for spec in specs:
-                if processes:
+                if processes or spec.own_process:
                     self._spawn(spec)
                 else:
                     self._construct(spec)

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64MultiArray, String
 
 from fbcc_ros.core.errors import InputError
 from fbcc_ros.nodes import cdr
@@ -81,6 +81,11 @@ def test_float64_array_both_ways(data, dims):
     assert cdr.decode_array(serialize_message(msg)) == tuple(data)
 
 
+@given(text)
+def test_string_decodes_like_rclpy(data):
+    assert cdr.decode_string(serialize_message(String(data=data))) == data
+
+
 def test_nan_and_infinity_pass_through():
     stamp = (1, 2)
     values = (math.nan, math.inf, -math.inf, 0.0, -0.0, 1e-308)
@@ -104,6 +109,7 @@ def test_a_real_joint_state_decodes_like_rclpy():
         (cdr.decode_pose, "PoseStamped"),
         (cdr.decode_joints, "JointState"),
         (cdr.decode_array, "Float64MultiArray"),
+        (cdr.decode_string, "String"),
     ],
 )
 def test_garbled_bytes_are_an_input_error_naming_the_type(decode, kind):
@@ -112,6 +118,7 @@ def test_garbled_bytes_are_an_input_error_naming_the_type(decode, kind):
         "PoseStamped": cdr.encode_pose((0, 0), "frame", [1.0] * 7),
         "JointState": cdr.encode_joints((0, 0), "f", ["a", "b"], [1.0, 2.0]),
         "Float64MultiArray": cdr.encode_array([1.0, 2.0], [("x", 2, 2)]),
+        "String": serialize_message(String(data="inserting")),
     }[kind]
     with pytest.raises(InputError, match=kind):
         decode(whole[: len(whole) - 5])

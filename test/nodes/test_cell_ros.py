@@ -3,6 +3,7 @@ simulator, and every node started as a process with its YAML file, as ``ros2 run
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -13,11 +14,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fbcc_ros.bag.reader import read_bag
 from fbcc_ros.core import scenario
 from fbcc_ros.core.contact import FEATURE_NAMES
 from fbcc_ros.core.simulation import simulate
 from fbcc_ros.nodes.bringup import cell_nodes, run_cell, start_insertion
 from fbcc_ros.nodes.bringup import main as bringup_main
+from fbcc_ros.nodes.cdr import decode_string
 from fbcc_ros.nodes.harness import CellRun
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -108,12 +111,34 @@ def test_each_node_reports_on_diagnostics() -> None:
     assert all(s.level == b"\x00" for s in statuses.values()), statuses  # type: ignore[attr-defined]
 
 
-def test_bringup_command_reports_and_exits_zero(tmp_path: Path, capfd) -> None:
+def test_bringup_command_reports_exits_zero_and_records_the_session(tmp_path: Path, capfd) -> None:
+    """The README's first command: one assembly, its summary, and a bag of the whole session
+    (recorded by default) that holds the insertion from its start to its end."""
     # capfd, not capsys: the EventsExecutor enables faulthandler, which needs a real stderr
     assert bringup_main([str(SCENARIO), "--out", str(tmp_path)]) == 0
     out = capfd.readouterr().out
     assert "assembled: phase inserted" in out, out
-    assert (tmp_path / "summary.json").exists()
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    bag = read_bag(Path(summary["bag"]["path"]))
+    assert bag.path.parent.parent == tmp_path / "bags" and not bag.truncated
+    assert summary["bag"]["messages"] == {t: bag.counts[t] for t in bag.topics}
+    sc = scenario.load(SCENARIO)
+    periods = sc.duration * sc.rate_hz
+    for topic in ("/joint_states", "/ft_sensor/raw", "/mock_cell/truth"):
+        assert bag.counts[topic] >= periods, (topic, bag.counts)  # and the taring before
+    assert bag.counts["/fbcc/command"] >= 0.9 * periods, bag.counts
+    phases = [decode_string(m.data) for m in bag.of("/fbcc/phase")]
+    assert phases[0] == "idle" and "inserting" in phases and phases[-1] == "inserted", phases
+
+
+def test_bringup_without_recording_and_never_over_a_bag(tmp_path: Path, capfd) -> None:
+    (tmp_path / "old" / "x_0.mcap").parent.mkdir()
+    (tmp_path / "old" / "x_0.mcap").write_bytes(b"a session")
+    assert bringup_main([str(SCENARIO), "--bag", str(tmp_path / "old")]) == 2
+    assert "a new or empty folder" in capfd.readouterr().err
+    assert (tmp_path / "old" / "x_0.mcap").read_bytes() == b"a session"
+    with pytest.raises(SystemExit):
+        bringup_main([str(SCENARIO), "--bag", str(tmp_path / "b"), "--no-record"])
 
 
 def test_bringup_bad_input_exits_two(capsys) -> None:
