@@ -11,7 +11,9 @@ from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
+import yaml
 from mcap.records import Channel, Footer, Message, Schema
 from mcap.stream_reader import StreamReader
 
@@ -35,6 +37,7 @@ class Bag:
     topics: dict[str, str]  # topic -> pkg/msg/Type
     truncated: str = ""  # why the file ends early; empty if it is whole
     counts: Counter[str] = field(default_factory=Counter)
+    qos: dict[str, list[dict[str, Any]]] = field(default_factory=dict)  # offered, per topic
 
     def of(self, topic: str) -> Iterator[BagMessage]:
         return (m for m in self.messages if m.topic == topic)
@@ -70,6 +73,7 @@ def read_bag(path: Path) -> Bag:
         f.seek(0)
         schemas: dict[int, str] = {}
         channels: dict[int, tuple[str, str]] = {}
+        qos: dict[str, list[dict[str, Any]]] = {}
         messages: list[BagMessage] = []
         truncated = "no footer: the recorder did not close the file"
         try:
@@ -78,6 +82,7 @@ def read_bag(path: Path) -> Bag:
                     schemas[record.id] = record.name
                 elif isinstance(record, Channel):
                     channels[record.id] = (record.topic, schemas.get(record.schema_id, ""))
+                    qos[record.topic] = _offered_qos(record.metadata)
                 elif isinstance(record, Message):
                     topic, kind = channels[record.channel_id]
                     messages.append(BagMessage(topic, kind, record.log_time, record.data))
@@ -89,4 +94,13 @@ def read_bag(path: Path) -> Bag:
             truncated = f"cut short after {len(messages)} messages ({type(exc).__name__})"
     counts = Counter(m.topic for m in messages)
     topics = {topic: kind for topic, kind in channels.values()}
-    return Bag(file, messages, topics, truncated, counts)
+    return Bag(file, messages, topics, truncated, counts, qos)
+
+
+def _offered_qos(metadata: dict[str, str]) -> list[dict[str, Any]]:
+    """A channel's ``offered_qos_profiles`` (rosbag2's YAML list); none if absent or garbled."""
+    try:
+        profiles = yaml.safe_load(metadata.get("offered_qos_profiles", "") or "[]")
+    except yaml.YAMLError:
+        return []
+    return [p for p in profiles if isinstance(p, dict)] if isinstance(profiles, list) else []

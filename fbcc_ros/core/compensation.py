@@ -177,6 +177,11 @@ class Compensator:
                 Motion.at_rest(setup.hole_in_base.rotation @ setup.pose.rotation),
             )
 
+    @property
+    def taring(self) -> bool:
+        """Whether the next accepted reading still goes into the tare (no output)."""
+        return len(self._tare) < self.setup.tare_samples
+
     def joints(self, stamp: float, q: ArrayLike, dq: ArrayLike | None = None) -> bool:
         """Takes a joint state; velocities are differentiated from positions when absent, and
         accelerations from velocities (low-passed). Returns False, counted, if rejected."""
@@ -247,7 +252,7 @@ class Compensator:
             self.counts["no_joint_state"] += 1
             return None
         sensor_in_hole, motion = state
-        if len(self._tare) < self.setup.tare_samples:
+        if self.taring:
             self._add_tare(stamp, wrench, motion)
             return None
         try:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -117,18 +118,45 @@ def recorder(bag: Path) -> NodeSpec:
 
 
 def wait_recording(run: CellRun, timeout: float) -> None:
-    """Waits until the recorder subscribes every topic it records: nothing of the insertion is
-    lost."""
+    """Waits until the recorder subscribes every topic it records, and, for the nodes in this
+    process, until their publishers have matched it: a subscription seen in the graph is not
+    yet matched by the publisher, and what it publishes meanwhile is lost (the first 30 ms of
+    commands, once). Nothing of the insertion is lost."""
     names = [run.observer.resolve_topic_name(t) for t in BRINGUP_TOPICS]
     graph = run.observer.get_subscriptions_info_by_topic
+    publishers = [p for node in run.nodes.values() for p in node.publishers
+                  if p.topic_name in names]  # fmt: skip
 
     def missing() -> list[str]:
-        return [n for n in names if all(s.node_name != "fbcc_record" for s in graph(n))]
+        unseen = [n for n in names if all(s.node_name != "fbcc_record" for s in graph(n))]
+        unmatched = [p.topic_name for p in publishers
+                     if p.get_subscription_count() < len(graph(p.topic_name))]  # fmt: skip
+        return unseen + unmatched
 
-    try:
-        run.spin_until(lambda: not missing(), timeout, "the recorder did not subscribe")
-    except FbccError as exc:
-        raise FbccError(f"{exc}: {missing()} not recorded") from exc
+    # Not spinning meanwhile (discovery and matching run on DDS's threads): the nodes in this
+    # process do not tick yet, so the bag holds the sensor's taring from its first sample.
+    deadline = time.monotonic() + timeout
+    while missing():
+        run.check_alive()
+        if time.monotonic() > deadline:
+            raise FbccError(f"the recorder did not subscribe within {timeout:.0f} s: "
+                            f"{missing()} not recorded")  # fmt: skip
+        time.sleep(0.02)
+
+
+def write_parameters(bag: Path, specs: list[NodeSpec]) -> None:
+    """The nodes' given parameters beside the bag (``fbcc_params.yaml``, ros__parameters form),
+    for the offline replay: with each table's defaults they are the whole configuration."""
+    import yaml
+
+    from fbcc_ros.bag.offline import PARAMS_FILE
+
+    class Plain(yaml.SafeDumper):  # no &anchors: rcl's YAML parser does not take them
+        def ignore_aliases(self, data: Any) -> bool:
+            return True
+
+    doc = {s.name: {"ros__parameters": s.parameters} for s in specs if not s.own_process}
+    (bag / PARAMS_FILE).write_text(yaml.dump(doc, Dumper=Plain, sort_keys=False))
 
 
 def bag_contents(bag: Path) -> dict[str, Any]:
@@ -219,6 +247,7 @@ def run_cell(
     )
     summary["success"] = bool(summary["success"]) and phase not in ("fault", "aborted")
     if bag is not None:
+        write_parameters(bag, specs)
         summary["bag"] = bag_contents(bag)
     return summary
 

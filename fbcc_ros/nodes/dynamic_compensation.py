@@ -96,6 +96,9 @@ class DynamicCompensationNode(Node):
         self.robot = robot if setup.placement == "wrist" else None
         self.comp = Compensator(setup, self.robot)
         self.pub = self.create_publisher(WrenchStamped, topics.COMPENSATED_WRENCH, 10)
+        self.pub_bias = self.create_publisher(WrenchStamped, topics.BIAS, topics.PHASE_QOS)
+        self._publish_bias(self.get_clock().now().nanoseconds * 1e-9)
+        self._untared = self.comp.setup.tare_samples > 0
         sub = self.create_subscription  # raw: CDR bytes, decoded by fbcc_ros.nodes.convert
         if self.robot is not None:
             sub(JointState, topics.JOINT_STATES, self.on_joints, 10, raw=True)
@@ -123,6 +126,11 @@ class DynamicCompensationNode(Node):
             return
         self._publish(out)
 
+    def _publish_bias(self, stamp: float) -> None:
+        """The bias in use, latched: the configured one at start-up, the measured one with the
+        first output after the tare."""
+        self.pub_bias.publish(wrench_to_cdr(self.comp.bias, self.comp.setup.frame, stamp))
+
     def on_torques(self, data: bytes) -> None:
         assert self.robot is not None
         try:
@@ -139,6 +147,10 @@ class DynamicCompensationNode(Node):
             if rejected:
                 self.get_logger().warn(f"samples rejected: {rejected}", throttle_duration_sec=2.0)
             return
+        if self._untared:
+            self._untared = False
+            self._publish_bias(out.stamp)
+            self.get_logger().info(f"tared: bias {np.round(self.comp.bias, 4).tolist()}")
         self.pub.publish(wrench_to_cdr(out.wrench, topics.HOLE_FRAME, out.stamp))
 
 

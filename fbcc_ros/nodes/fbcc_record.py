@@ -27,6 +27,7 @@ from fbcc_ros.nodes.params import Param, declare, run
 #: What a session of the cell needs for replay and report (topics.py names, relative).
 CELL_TOPICS = [
     topics.JOINT_STATES, topics.JOINT_COMMAND, topics.RAW_WRENCH, topics.COMPENSATED_WRENCH,
+    topics.BIAS,
     topics.FEATURES, topics.COMMAND, topics.TCP_COMMAND, topics.PHASE, topics.CONTACT_STATE,
     topics.KINEMATICS_STATUS, topics.TRUTH,
 ]  # fmt: skip

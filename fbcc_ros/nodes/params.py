@@ -69,7 +69,7 @@ def declare(
     values: dict[str, Any] = {}
     for p in table:
         values[p.name] = node.declare_parameter(p.name, p.default, p.descriptor()).value
-        _check_choice(p, values[p.name])
+        check_choice(p, values[p.name])
     by_name = {p.name: p for p in table}
 
     def on_set(changes: list[Any]) -> SetParametersResult:
@@ -77,7 +77,7 @@ def declare(
         for change in changes:
             if change.name in by_name:
                 try:
-                    _check_choice(by_name[change.name], change.value)
+                    check_choice(by_name[change.name], change.value)
                 except FbccError as exc:
                     return SetParametersResult(successful=False, reason=str(exc))
                 merged[change.name] = change.value
@@ -93,7 +93,7 @@ def declare(
     return values
 
 
-def _check_choice(p: Param, value: Any) -> None:
+def check_choice(p: Param, value: Any) -> None:
     if p.choices and value not in p.choices:
         raise ConfigError(p.name, value, f"one of {list(p.choices)}")
 

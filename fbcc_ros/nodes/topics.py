@@ -6,6 +6,9 @@ JOINT_STATES = "joint_states"
 JOINT_COMMAND = "joint_command"
 RAW_WRENCH = "ft_sensor/raw"
 COMPENSATED_WRENCH = "ft_sensor/compensated"
+#: The bias the compensation subtracts (sensor frame), latched: the configured one at start-up,
+#: the measured one once the tare is done; it makes a bag's compensation reproducible offline.
+BIAS = "ft_sensor/bias"
 FEATURES = "fbcc/features"
 COMMAND = "fbcc/command"
 TCP_COMMAND = "fbcc/tcp_command"
@@ -21,5 +24,6 @@ BASE_FRAME = "base"
 #: what the real cell cannot measure, for scoring a hardware-free run.
 TRUTH = "mock_cell/truth"
 TRUTH_FIELDS = ("stamp", "dx", "dy", "l", "theta_x", "theta_y", "Fx", "Fy", "Fz", "Mx", "My")
-#: The phase is latched (transient local): a late subscriber still gets the current one.
+#: The phase and the bias are latched (transient local): a late subscriber still gets the
+#: current one.
 PHASE_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)

@@ -126,7 +126,9 @@ def test_bringup_command_reports_exits_zero_and_records_the_session(tmp_path: Pa
     periods = sc.duration * sc.rate_hz
     for topic in ("/joint_states", "/ft_sensor/raw", "/mock_cell/truth"):
         assert bag.counts[topic] >= periods, (topic, bag.counts)  # and the taring before
-    assert bag.counts["/fbcc/command"] >= 0.9 * periods, bag.counts
+    # nothing lost: the recorder, in its own process, got every joint command the observer in
+    # the cell's process counted (and the few before the count began)
+    assert bag.counts["/joint_command"] >= summary["cycles"]["commands"] > 0.5 * periods
     phases = [decode_string(m.data) for m in bag.of("/fbcc/phase")]
     assert phases[0] == "idle" and "inserting" in phases and phases[-1] == "inserted", phases
 

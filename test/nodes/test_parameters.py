@@ -19,6 +19,7 @@ import rclpy
 import yaml
 from rclpy.parameter import Parameter
 
+from fbcc_ros.bag.offline import flatten_parameters
 from fbcc_ros.nodes.dynamic_compensation import TABLE as COMPENSATION
 from fbcc_ros.nodes.dynamic_compensation import DynamicCompensationNode
 from fbcc_ros.nodes.fbcc_controller import TABLE as CONTROLLER
@@ -54,19 +55,9 @@ TOGETHER: dict[str, dict[str, Any]] = {
 }
 
 
-def _flatten(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for key, value in tree.items():
-        if isinstance(value, dict):
-            out.update(_flatten(value, f"{prefix}{key}."))
-        else:
-            out[f"{prefix}{key}"] = value
-    return out
-
-
 def _yaml(node: str) -> dict[str, Any]:
     text = (ROOT / "config" / f"{node}.yaml").read_text()
-    return _flatten(yaml.safe_load(text)[node]["ros__parameters"])
+    return flatten_parameters(yaml.safe_load(text)[node]["ros__parameters"])
 
 
 def _changed(p: Param, value: Any) -> Any:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import signal
 import subprocess
 import sys
@@ -67,27 +68,48 @@ def test_a_recorded_mock_cell_reads_back_with_rosbags(tmp_path: Path) -> None:
     assert read_bag(folder).truncated == ""
 
 
-def test_a_killed_recorder_leaves_a_readable_truncated_bag(tmp_path: Path) -> None:
+def test_a_killed_recorder_leaves_a_readable_truncated_bag_the_report_says_so(
+    tmp_path: Path,
+) -> None:
+    """A whole cell (the bringup, not recording itself) recorded by fbcc_record, which is
+    SIGKILLed two seconds into the insertion: the bag reads up to its last flushed chunk, and
+    fbcc-report draws it and says it is truncated."""
     folder = tmp_path / "killed"
-    log = (tmp_path / "log.txt").open("w")
+    log_path = tmp_path / "log.txt"
+    log = log_path.open("w")
     run = [sys.executable, "-m"]
-    mock = subprocess.Popen([*run, "fbcc_ros.nodes.mock_cell"], cwd=ROOT, stdout=log,
-                            stderr=subprocess.STDOUT)  # fmt: skip
     recorder = subprocess.Popen(
         [*run, "fbcc_ros.nodes.fbcc_record", "--ros-args", "-p", f"out:={folder}"],
         cwd=ROOT, stdout=log, stderr=subprocess.STDOUT,
     )  # fmt: skip
+    cell = subprocess.Popen([*run, "fbcc_ros.nodes.bringup", "--no-record"], cwd=ROOT,
+                            stdout=log, stderr=subprocess.STDOUT)  # fmt: skip
     try:
-        time.sleep(6.0)
-        assert recorder.poll() is None, (tmp_path / "log.txt").read_text()
+        deadline = time.monotonic() + 90.0
+        while "t =  2.0 s" not in log_path.read_text() and time.monotonic() < deadline:
+            assert cell.poll() is None, log_path.read_text()
+            time.sleep(0.1)
+        assert recorder.poll() is None, log_path.read_text()
         recorder.send_signal(signal.SIGKILL)
         recorder.wait(timeout=10)
     finally:
-        for proc in (mock, recorder):
+        for proc in (cell, recorder):
             if proc.poll() is None:
                 proc.kill()
                 proc.wait()
     bag = read_bag(folder)
     assert bag.truncated, "a killed recorder cannot have written the footer"
-    assert bag.counts["/joint_states"] > 300, (bag.counts, (tmp_path / "log.txt").read_text())
+    assert bag.counts["/joint_states"] > 1000, (bag.counts, log_path.read_text())
+    assert bag.counts["/fbcc/command"] > 500, bag.counts  # it was killed mid-insertion
     assert (folder / "metadata.yaml").exists()  # the last checkpoint's
+    out = tmp_path / "report"
+    scenario = ROOT / "config" / "scenarios" / "bringup_interference.yaml"
+    proc = subprocess.run([*run, "fbcc_ros.cli.report", str(folder), "--out", str(out),
+                           "--scenario", str(scenario)], cwd=ROOT, capture_output=True,
+                          text=True, timeout=120)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert "TRUNCATED" in proc.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["truncated"] == bag.truncated
+    assert "**The bag is truncated**" in (out / "summary.md").read_text()
+    assert summary["final_phase"] == "inserting"  # where the recording stopped

@@ -1,0 +1,203 @@
+"""fbcc_replay: a recorded session back onto the ROS graph with its timing, or offline.
+
+    fbcc_replay BAG [--rate R] [--topics T [T ...]] [--start S] [--loop] [--ros-args ...]
+    fbcc_replay BAG --offline [--params FILE ...] [--out DIR]
+
+**Republish** (default): every message of the bag (or of ``--topics``) is published as it was
+recorded, raw, at its recorded time from the first one, scaled by ``1 / rate``; ``--start``
+skips the first S seconds, ``--loop`` starts again at the end. Each topic is offered with the
+QoS it was recorded with (transient local where the recorded publisher was latched, so a late
+subscriber still gets the last phase). Progress is printed each second; Ctrl-C stops.
+
+**Offline** (``--offline``): the bag's raw wrenches and joint states run through the
+compensation, kinematics and controller core, without ROS (:mod:`fbcc_ros.bag.offline`), with
+the nodes' parameters from ``--params`` files or the bag's ``fbcc_params.yaml``. It prints the
+largest difference from the recorded commands, per feature, against the stated tolerance
+(:data:`TOLERANCE`), and with ``--out`` writes ``offline.csv`` and ``offline.json``. Changed
+parameters (another law, other gains) then show what they would have commanded.
+
+Exit status: 0 done; 1 offline, when the commands of unchanged parameters are not reproduced;
+2 bad input (a missing file, a file that is not mcap, a bag without the needed topics, a bad
+option), with one line saying what and no traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fbcc_ros.bag.reader import Bag, read_bag
+from fbcc_ros.core.errors import FbccError, InputError
+
+#: Offline replay of a bag with its own parameters reproduces its commands within this, in m
+#: (offsets, depth) and rad (tilts): float rounding only. The committed test bag replays to
+#: ~1e-16; what exceeds this is a change of behaviour, not noise.
+TOLERANCE = 1e-12
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="fbcc_replay", description=__doc__.splitlines()[0])
+    parser.add_argument("bag", type=Path, help="bag folder or .mcap file")
+    parser.add_argument("--rate", type=float, default=1.0, help="speed factor (default 1)")
+    parser.add_argument("--topics", nargs="+", default=None, help="only these topics")
+    parser.add_argument("--start", type=float, default=0.0, help="skip the first S seconds")
+    parser.add_argument("--loop", action="store_true", help="start again at the end")
+    parser.add_argument(
+        "--offline",
+        action="store_true",
+        help="through the core without ROS, against the recorded commands",
+    )
+    parser.add_argument(
+        "--params",
+        type=Path,
+        nargs="+",
+        default=(),
+        help="ros__parameters YAML files of the nodes (offline; default: the "
+        "bag's fbcc_params.yaml)",
+    )
+    parser.add_argument("--out", type=Path, default=None, help="folder for the offline results")
+    return parser  # fmt: skip
+
+
+def schedule(bag: Bag, topics: list[str] | None, start: float) -> list[Any]:
+    """The messages to publish, in recorded order, from ``start`` seconds on."""
+    if topics is not None:
+        unknown = [t for t in topics if t not in bag.topics]
+        if unknown:
+            raise InputError("--topics", unknown, f"topics of the bag: {sorted(bag.topics)}")
+    chosen = [m for m in bag.messages if topics is None or m.topic in topics]
+    if not chosen:
+        raise InputError("bag", str(bag.path), "messages on the chosen topics")
+    begin = min(m.log_time_ns for m in chosen) + round(start * 1e9)
+    chosen = sorted((m for m in chosen if m.log_time_ns >= begin), key=lambda m: m.log_time_ns)
+    if not chosen:
+        raise InputError("--start", start, "a time within the bag's messages [s]")
+    return chosen
+
+
+def _qos(profiles: list[dict[str, Any]]) -> Any:
+    """What the recorded publishers offered: latched if any was, best effort if all were."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    latched = any(p.get("durability") == "transient_local" for p in profiles)
+    best_effort = bool(profiles) and all(p.get("reliability") == "best_effort" for p in profiles)
+    return QoSProfile(
+        depth=100,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+        reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
+    )
+
+
+def republish(bag: Bag, messages: list[Any], rate: float, loop: bool, ros_args: list[str]) -> int:
+    """Publishes ``messages`` at their recorded pace / ``rate``; returns how many."""
+    import rclpy
+    from rclpy.duration import Duration
+    from rclpy.node import Node
+
+    from fbcc_ros.bag.schema import message_class
+
+    context = rclpy.Context()
+    rclpy.init(args=["fbcc_replay", *ros_args], context=context)
+    node = Node("fbcc_replay", context=context)
+    try:
+        pubs = {t: node.create_publisher(message_class(bag.topics[t]), t, _qos(bag.qos.get(t, [])))
+                for t in {m.topic for m in messages}}  # fmt: skip
+        time.sleep(0.5)  # discovery: let subscribers that are up match before the first message
+        t0 = messages[0].log_time_ns
+        span = (messages[-1].log_time_ns - t0) * 1e-9 / rate
+        sent = 0
+        while True:
+            wall0, said = time.monotonic(), 0
+            for m in messages:
+                due = wall0 + (m.log_time_ns - t0) * 1e-9 / rate
+                if (wait := due - time.monotonic()) > 0:
+                    time.sleep(wait)
+                pubs[m.topic].publish(m.data)
+                sent += 1
+                if (elapsed := time.monotonic() - wall0) >= said + 1:
+                    said += 1
+                    print(f"  {elapsed:5.1f} s of {span:.1f} s, {sent} messages", flush=True)
+            if not loop:
+                for pub in pubs.values():  # reliable subscribers get the last ones too
+                    pub.wait_for_all_acked(Duration(seconds=2.0))
+                return sent
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+
+
+def offline(bag: Bag, params: list[Path], out: Path | None) -> int:
+    from fbcc_ros.bag.offline import node_parameters, replay_offline
+
+    given = node_parameters(bag.path, params)
+    result = replay_offline(bag, given)
+    error = result.max_error()
+    counts = ", ".join(f"{k} {v}" for k, v in result.counts.items())
+    print(f"offline: {counts}; phase {result.phase}")
+    names = ("dx", "dy", "l", "theta_x", "theta_y")
+    print("largest |offline - recorded| command: "
+          + ", ".join(f"{n} {e:.3g}" for n, e in zip(names, error, strict=True)))  # fmt: skip
+    compared = int(np.isfinite(result.recorded).all(axis=1).sum())
+    reproduced = compared > 0 and bool((error <= TOLERANCE).all())
+    if compared == 0:
+        print("the bag has no recorded commands to compare with")
+    else:
+        print(f"{'reproduces' if reproduced else 'DIFFERS FROM'} the {compared} recorded commands "
+              f"(tolerance {TOLERANCE:g} m, rad)")  # fmt: skip
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        with (out / "offline.csv").open("w", newline="") as f:
+            writer = csv.writer(f)
+            writer.writerow(["t", *names, *(f"recorded_{n}" for n in names)])
+            for t, c, r in zip(result.t, result.commands, result.recorded, strict=True):
+                writer.writerow([f"{t:.6f}", *map(repr, c.tolist()), *map(repr, r.tolist())])
+        summary = {"bag": str(bag.path), "counts": result.counts, "phase": result.phase,
+                   "max_error": dict(zip(names, error.tolist(), strict=True)),
+                   "tolerance": TOLERANCE, "compared": compared, "reproduced": reproduced,
+                   "parameters": given}  # fmt: skip
+        (out / "offline.json").write_text(json.dumps(summary, indent=2) + "\n")
+        print(f"wrote {out / 'offline.csv'} and {out / 'offline.json'}")
+    # with the bag's own parameters a difference is a regression; with --params, the point
+    return 1 if compared and not reproduced and not params else 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    ros_args: list[str] = []
+    if "--ros-args" in argv:
+        i = argv.index("--ros-args")
+        argv, ros_args = argv[:i], argv[i:]
+    args = _parser().parse_args(argv)
+    try:
+        if not args.rate > 0:
+            raise InputError("--rate", args.rate, "a speed factor > 0")
+        bag = read_bag(args.bag)
+        if bag.truncated:
+            print(f"fbcc_replay: the bag is truncated ({bag.truncated}); replaying what it has",
+                  file=sys.stderr)  # fmt: skip
+        if args.offline:
+            return offline(bag, list(args.params), args.out)
+        messages = schedule(bag, args.topics, args.start)
+        span = (messages[-1].log_time_ns - messages[0].log_time_ns) * 1e-9
+        print(f"fbcc_replay: {len(messages)} messages on {len({m.topic for m in messages})} "
+              f"topics, {span:.1f} s at rate {args.rate:g}{' (loop)' if args.loop else ''}",
+              flush=True)  # fmt: skip
+        sent = republish(bag, messages, args.rate, args.loop, ros_args)
+    except FbccError as exc:
+        print(f"fbcc_replay: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 0
+    print(f"fbcc_replay: published {sent} messages")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

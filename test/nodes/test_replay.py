@@ -1,0 +1,101 @@
+"""fbcc_replay over DDS: the committed bag republished at its recorded pace (scaled), its latched
+phase offered as latched; and its command line on bad input."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import rclpy
+from rclpy.experimental import EventsExecutor
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+
+from fbcc_ros.bag.reader import read_bag
+from fbcc_ros.bag.writer import BagWriter
+from fbcc_ros.nodes import topics
+from fbcc_ros.nodes.cdr import decode_joints
+
+ROOT = Path(__file__).resolve().parents[2]
+BAG = ROOT / "test" / "data" / "bags" / "short_interference"
+
+
+def _replay(*args: str) -> subprocess.Popen[str]:
+    cmd = [sys.executable, "-m", "fbcc_ros.nodes.fbcc_replay", *args]
+    return subprocess.Popen(cmd, cwd=ROOT, env=os.environ, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)  # fmt: skip
+
+
+def test_republished_at_the_recorded_pace_scaled_by_the_rate() -> None:
+    bag = read_bag(BAG)
+    recorded = [decode_joints(m.data)[0] for m in bag.of("/joint_states")]
+    span = (bag.messages[-1].log_time_ns - bag.messages[0].log_time_ns) * 1e-9
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    executor = EventsExecutor(context=context)
+    node = Node("listener", context=context)
+    got: list[tuple[float, tuple[int, int]]] = []
+    phases: list[str] = []
+    node.create_subscription(JointState, "/joint_states",
+                             lambda d: got.append((time.monotonic(), decode_joints(d)[0])),
+                             1000, raw=True)  # fmt: skip
+    node.create_subscription(String, "/fbcc/phase", lambda m: phases.append(m.data),
+                             topics.PHASE_QOS)  # fmt: skip
+    executor.add_node(node)
+    proc = _replay(str(BAG), "--rate", "0.5", "--topics", "/joint_states", "/fbcc/phase")
+    try:
+        deadline = time.monotonic() + 30.0
+        while proc.poll() is None and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.01)
+        for _ in range(50):  # what is still in flight
+            executor.spin_once(timeout_sec=0.01)
+        out, err = proc.communicate(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+    assert proc.returncode == 0, err
+    assert "published" in out and "s of" in out, out  # the summary and the progress
+    assert [stamp for _, stamp in got] == recorded  # all of them, in order, the recorded bytes
+    paced = got[-1][0] - got[0][0]
+    expected = span / 0.5
+    assert 0.85 * expected <= paced <= 1.3 * expected, (paced, expected)
+    assert phases and phases[-1] == "inserted", phases
+
+
+def _bag_with_only_the_phase(folder: Path) -> Path:
+    from rclpy.qos import QoSProfile
+    from rclpy.serialization import serialize_message
+
+    with BagWriter(folder) as bag:
+        bag.add_topic("/fbcc/phase", "std_msgs/msg/String", [QoSProfile(depth=1)])
+        bag.write("/fbcc/phase", serialize_message(String(data="idle")), 1)
+    return folder
+
+
+@pytest.mark.parametrize(
+    ("case", "args", "message"),
+    [
+        ("missing", ["no/such/bag"], "an existing .mcap file or bag folder"),
+        ("not mcap", ["{junk}"], "an mcap file"),
+        ("no joint states", ["{phase_only}", "--offline"], "messages on /joint_states"),
+        ("unknown topic", [str(BAG), "--topics", "/nope"], "topics of the bag"),
+        ("bad rate", [str(BAG), "--rate", "0"], "--rate"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_two(case, args, message, tmp_path: Path) -> None:
+    junk = tmp_path / "junk.mcap"
+    junk.write_bytes(b"not a bag at all")
+    phase_only = _bag_with_only_the_phase(tmp_path / "phase_only")
+    args = [a.format(junk=junk, phase_only=phase_only) for a in args]
+    proc = _replay(*args)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 2, (out, err)
+    assert message in err and "Traceback" not in err, err
