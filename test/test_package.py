@@ -20,12 +20,14 @@ EXECUTABLES = (
     "fbcc-montecarlo",
     "fbcc-kinematics",
     "fbcc-calibrate",
+    "fbcc-report",
     "fbcc_bringup",
     "dynamic_compensation",
     "kinematics",
     "fbcc_controller",
     "mock_cell",
     "fbcc_record",
+    "fbcc_replay",
 )
 
 

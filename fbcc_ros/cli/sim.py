@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from fbcc_ros.cli.common import out_dir
-from fbcc_ros.cli.sim_plots import draw_planes, draw_trajectories
+from fbcc_ros.cli.sim_plots import Series, draw_planes, draw_trajectories
 from fbcc_ros.core import scenario as scenario_io
 from fbcc_ros.core.contact import FEATURE_NAMES, RESPONSE_NAMES
 from fbcc_ros.core.errors import ConfigError
@@ -95,8 +95,9 @@ def main(argv: list[str] | None = None) -> int:
     (out / "summary.json").write_text(json.dumps(doc, indent=2) + "\n")
     write_csv(runs, out / "trajectory.csv")
     if not args.no_plots:
-        draw_trajectories(runs, out / "trajectories.png")
-        draw_planes(runs, out / "planes.png")
+        series = [Series.simulated(name, res) for name, res in runs]
+        draw_trajectories(series, out / "trajectories.png")
+        draw_planes(series, out / "planes.png")
     simulated = sum(res.scenario.duration for _, res in runs)
     print(f"{'run':<28} {'success':>7} {'t_ins':>8} {'peak_Fz':>8} {'resid_F':>9} "
           f"{'overshoot':>9} {'dx[µm]':>8} {'dy[µm]':>8} {'θx[°]':>7} {'θy[°]':>7}")  # fmt: skip

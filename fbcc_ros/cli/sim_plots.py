@@ -1,4 +1,4 @@
-"""Figures of simulated assemblies in the style of the paper's Fig. 8-10.
+"""Figures of assemblies, simulated or recorded, in the style of the paper's Fig. 8-10.
 
 ``draw_trajectories``: the features of V_XOZ (dx, theta_y, l) and the responses of W_XOZ
 (Fx, My, Fz) against time, and the same for YOZ, every run on the same axes.
@@ -9,6 +9,7 @@ response plane of Fig. 6 (Fx/Fz, My/(R Fz)) with the boundaries of eq. 21 and 24
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import matplotlib
@@ -17,13 +18,30 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from fbcc_ros.core.contact import PegHole
 from fbcc_ros.core.segmentation import tilt_boundary_angle
 from fbcc_ros.core.simulation import SimResult
 
 _MM, _DEG = 1e3, 180.0 / np.pi
 
 
-def draw_trajectories(runs: Sequence[tuple[str, SimResult]], path: Path) -> Path:
+@dataclass
+class Series:
+    """One run to draw: features and responses, (T, 5) each, at times t (T,) [s]."""
+
+    name: str
+    t: np.ndarray
+    features: np.ndarray
+    response: np.ndarray
+    geometry: PegHole
+
+    @classmethod
+    def simulated(cls, name: str, res: SimResult) -> Series:
+        tr = res.trajectory
+        return cls(name, tr.t, tr.features[:, 0], tr.response[:, 0], res.scenario.geometry)
+
+
+def draw_trajectories(runs: Sequence[Series], path: Path) -> Path:
     """Features and responses against time for every run (Fig. 8/9 style)."""
     panels = (  # XOZ on top, YOZ below; l and Fz once each
         ("features", 0, _MM * 1e3, "dx [µm]"), ("features", 4, _DEG, "θy [°]"),
@@ -35,9 +53,8 @@ def draw_trajectories(runs: Sequence[tuple[str, SimResult]], path: Path) -> Path
     )  # fmt: skip
     fig, axes = plt.subplots(2, 5, figsize=(17, 6.5), sharex=True)
     for ax, (kind, col, scale, label) in zip(axes.flat, panels, strict=True):
-        for name, res in runs:
-            signal = getattr(res.trajectory, kind)[:, 0, col] * scale
-            ax.plot(res.trajectory.t, signal, lw=1.2, label=name)
+        for run in runs:
+            ax.plot(run.t, getattr(run, kind)[:, col] * scale, lw=1.2, label=run.name)
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     for ax in axes[1]:
@@ -53,13 +70,12 @@ def draw_trajectories(runs: Sequence[tuple[str, SimResult]], path: Path) -> Path
     return path
 
 
-def draw_planes(runs: Sequence[tuple[str, SimResult]], path: Path) -> Path:
+def draw_planes(runs: Sequence[Series], path: Path) -> Path:
     """Paths in the feature plane V_XOZ and in the normalised response plane W_XOZ (Fig. 10)."""
     fig, (ax_v, ax_w) = plt.subplots(1, 2, figsize=(12, 5))
     lim = 0.0
-    for name, res in runs:
-        tr, ph = res.trajectory, res.scenario.geometry
-        x, w = tr.features[:, 0], tr.response[:, 0]
+    for run in runs:
+        name, ph, x, w = run.name, run.geometry, run.features, run.response
         ax_v.plot(x[:, 0] * _MM * 1e3, x[:, 4] * _DEG, lw=1.2, label=name)
         ax_v.plot(x[0, 0] * _MM * 1e3, x[0, 4] * _DEG, "o", color=ax_v.lines[-1].get_color())
         # Fig. 6 plane: u = Fx/Fz, v = My/(R Fz); only where the peg clearly touches
@@ -68,7 +84,7 @@ def draw_planes(runs: Sequence[tuple[str, SimResult]], path: Path) -> Path:
         u, v = w[:, 0] / fz, w[:, 4] / (ph.hole_radius * fz)
         ax_w.plot(u[contact], v[contact], lw=1.0, label=name)
         lim = max(lim, float(np.nanmax(np.abs(u[contact]), initial=0.0)))
-    ph = runs[0][1].scenario.geometry
+    ph = runs[0].geometry
     lim = max(lim, 0.5)
     for depth, style in ((0.0, ":"), (ph.hole_depth, "--")):
         slope = np.tan(tilt_boundary_angle(depth, ph))

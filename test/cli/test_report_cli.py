@@ -1,0 +1,76 @@
+"""fbcc-report on the committed session bag: the figures, the summary, and bad input."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fbcc_ros.bag.reader import read_bag
+from fbcc_ros.cli import report
+
+ROOT = Path(__file__).resolve().parents[2]
+BAG = ROOT / "test" / "data" / "bags" / "short_interference"
+
+
+def test_the_report_of_a_recorded_session(tmp_path: Path, capsys) -> None:
+    assert report.main([str(BAG), "--out", str(tmp_path)]) == 0
+    assert "inserted" in capsys.readouterr().out
+    for name in ("trajectories.png", "planes.png", "states.png"):
+        assert (tmp_path / name).stat().st_size > 20_000, name
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    bag = read_bag(BAG)
+    assert summary["messages"] == {t: bag.counts[t] for t in bag.topics}
+    assert summary["truncated"] == "" and summary["commands"] == bag.counts["/fbcc/command"]
+    assert [p["phase"] for p in summary["phases"]] == ["idle", "inserting", "inserted"]
+    # the ramp of the scenario: 2 mm at 5 mm/s from the first command
+    assert summary["insertion_time_s"] == pytest.approx(0.4, abs=0.01)
+    assert summary["final_features"]["l"] == pytest.approx(2e-3, abs=1e-6)
+    for plane in ("XOZ", "YOZ"):
+        assert sum(summary["contact_state_share"][plane].values()) == pytest.approx(1.0, abs=1e-3)
+    # the peak axial force is the one the mock's truth had, seen through the compensation
+    truth_fz = max(np.frombuffer(m.data[-40:], "<f8")[2] for m in bag.of("/mock_cell/truth"))
+    assert summary["peak_fz_n"] == pytest.approx(truth_fz, rel=0.05)
+    text = (tmp_path / "summary.md").read_text()
+    assert "final phase **inserted**" in text and "truncated" not in text
+
+
+def test_a_cut_bag_is_reported_as_truncated(tmp_path: Path, capfd) -> None:
+    cut = tmp_path / "cut"
+    cut.mkdir()
+    whole = BAG / "short_interference_0.mcap"
+    data = whole.read_bytes()
+    (cut / whole.name).write_bytes(data[: int(len(data) * 0.7)])
+    shutil.copy(BAG / "fbcc_params.yaml", cut)
+    assert report.main([str(cut), "--out", str(tmp_path / "r")]) == 0
+    assert "TRUNCATED" in capfd.readouterr().err
+    summary = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert summary["truncated"] and 0 < summary["commands"] < read_bag(BAG).counts["/fbcc/command"]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["no/such/bag"], "an existing .mcap file or bag folder"),
+        (["{junk}"], "an mcap file"),
+        (["{no_features}"], "messages on /fbcc/features"),
+        ([str(BAG), "--scenario", "no/such.yaml"], "no/such.yaml"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_two(args, message, tmp_path: Path) -> None:
+    junk = tmp_path / "junk.mcap"
+    junk.write_bytes(b"\x89MCA not really")
+    from fbcc_ros.bag.writer import BagWriter
+
+    with BagWriter(tmp_path / "no_features") as bag:  # a bag of something else
+        bag.add_topic("/chatter", "std_msgs/msg/String", [])
+    args = [a.format(junk=junk, no_features=tmp_path / "no_features") for a in args]
+    proc = subprocess.run([sys.executable, "-m", "fbcc_ros.cli.report", *args], cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert proc.returncode == 2, (proc.stdout, proc.stderr)
+    assert message in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
