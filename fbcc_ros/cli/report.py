@@ -73,6 +73,10 @@ def nominal_geometry(bag: Bag, scenario: Path | None) -> PegHole:
         given = node_parameters(bag.path).get("fbcc_controller", {})
         values = table_values("fbcc_controller", fbcc_controller.TABLE, given)
         scenario = Path(values["scenario"])
+        if "scenario" not in given:
+            print(f"fbcc-report: no controller parameters beside the bag; the nominal pair is "
+                  f"the controller's default scenario {scenario} (else: --scenario)",
+                  file=sys.stderr)  # fmt: skip
     return scenario_io.load(find_scenario(str(scenario))).geometry
 
 

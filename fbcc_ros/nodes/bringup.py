@@ -104,8 +104,8 @@ def cell_nodes(
 
 
 #: What the bringup records: the cell's topics but the two computed only while heard
-#: (``fbcc-report`` derives the contact state from the recorded wrench and features, and a TCP
-#: command from the command); recording them costs the loop ~10 % of its cycles.
+#: (``fbcc-report`` derives the contact state from the recorded wrench and features; replay and
+#: report do not use the TCP command); recording them costs the loop ~10 % of its cycles.
 BRINGUP_TOPICS = [t for t in CELL_TOPICS if t not in (topics.CONTACT_STATE, topics.TCP_COMMAND)]
 
 

@@ -99,3 +99,18 @@ def test_bad_input_is_one_line_and_exit_two(case, args, message, tmp_path: Path)
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 2, (out, err)
     assert message in err and "Traceback" not in err, err
+
+
+def test_the_schedule_filters_topics_and_skips_the_start() -> None:
+    from fbcc_ros.nodes.fbcc_replay import schedule
+
+    bag = read_bag(BAG)
+    chosen = schedule(bag, ["/ft_sensor/raw"], start=0.5)
+    first = min(m.log_time_ns for m in bag.of("/ft_sensor/raw"))
+    times = [m.log_time_ns for m in chosen]
+    assert {m.topic for m in chosen} == {"/ft_sensor/raw"} and times == sorted(times)
+    assert times[0] >= first + 0.5e9 and times[-1] == max(
+        m.log_time_ns for m in bag.messages if m.topic == "/ft_sensor/raw"
+    )
+    expected = sum(first + 0.5e9 <= m.log_time_ns for m in bag.of("/ft_sensor/raw"))
+    assert len(chosen) == expected > 300
