@@ -151,25 +151,27 @@ class OfflineCell:
                               "wrench (ft_sensor/raw), not external joint torques")  # fmt: skip
         robot, hole = cell_from(kin)
         self.kinematics = CellKinematics(robot, hole, kin["peg_radius"])
-        setup = dynamic_compensation.setup_from(comp, cell_from(comp)[1])
-        self.wrist = setup.placement == "wrist"
-        self._compensator = (Compensator, setup, cell_from(comp)[0] if self.wrist else None)
-        self.compensator = Compensator(setup, self._compensator[2])
+        sensor_robot, sensor_hole = cell_from(comp)
+        self._setup = dynamic_compensation.setup_from(comp, sensor_hole)
+        self.wrist = self._setup.placement == "wrist"
+        self._sensor_robot = sensor_robot if self.wrist else None
+        self.compensator = Compensator(self._setup, self._sensor_robot)
         sc = scenario_io.load(find_scenario(ctrl["scenario"]))
         self.nominal = sc.geometry
         law = make_law(ctrl["law"], sc.geometry, sc.params, sc.insertion)
-        limits = fbcc_controller.FbccControllerNode._limits(ctrl)
+        limits = fbcc_controller.safety_limits(ctrl)
         self.supervisor = Supervisor(law, 1.0 / ctrl["rate_hz"], limits)
-        self.sensor_frame = comp["sensor_frame"]
 
     def retare(self, samples: int, bias: Sequence[float] | None = None) -> None:
         """A fresh compensator that tares on ``samples`` readings (at most its setup's), or
         that uses ``bias`` as it is, with no tare."""
-        make, setup, robot = self._compensator
+        from fbcc_ros.core.compensation import Compensator
+
+        tare = 0 if bias is not None else min(samples, self._setup.tare_samples)
+        setup = dataclasses.replace(self._setup, tare_samples=tare)
         if bias is not None:
-            setup = dataclasses.replace(setup, bias=tuple(bias), tare_samples=0)
-        setup = dataclasses.replace(setup, tare_samples=min(samples, setup.tare_samples))
-        self.compensator = make(setup, robot)
+            setup = dataclasses.replace(setup, bias=tuple(bias))
+        self.compensator = Compensator(setup, self._sensor_robot)
 
     def features(self, q: FloatArray) -> FloatArray:
         """The feature solution, as the controller reads it from the kinematics' pose."""
@@ -191,6 +193,7 @@ def replay_offline(bag: Bag, given: dict[str, dict[str, Any]]) -> OfflineResult:
     counts = flow.counts
     counts.update(compensated=0, stepped=0, dropped_by_controller=0)
     sup = cell.supervisor
+    start = min(flow.commands) if flow.commands else None
     t, commands, matched = [], [], []
     for m in bag.messages:
         if m.topic == "/joint_states":
@@ -209,8 +212,8 @@ def replay_offline(bag: Bag, given: dict[str, dict[str, Any]]) -> OfflineResult:
         if out is None:
             continue
         counts["compensated"] += 1
-        if flow.commands:
-            if key < min(flow.commands):
+        if start is not None:
+            if key < start:
                 continue  # the insertion had not started yet
             if key not in flow.commands:
                 counts["dropped_by_controller"] += 1
@@ -250,11 +253,12 @@ def _recorded_flow(bag: Bag, cell: OfflineCell) -> _Flow:
     from fbcc_ros.nodes.cdr import decode_wrench
     from fbcc_ros.nodes.convert import pose_from_cdr, stamp_to_seconds
 
-    raw = [_key(stamp_to_seconds(decode_wrench(m.data)[0])) for m in bag.of("/ft_sensor/raw")]
-    outputs = {_key(stamp_to_seconds(decode_wrench(m.data)[0]))
-               for m in bag.of("/ft_sensor/compensated")}  # fmt: skip
+    def keys(topic: str) -> list[int]:
+        return [_key(stamp_to_seconds(decode_wrench(m.data)[0])) for m in bag.of(topic)]
+
+    raw, outputs = keys("/ft_sensor/raw"), set(keys("/ft_sensor/compensated"))
     commands: dict[int, FloatArray] = {}
-    for m in bag.of("/fbcc/command"):  # the peg's pose in {H}, read as the kinematics reads it
+    for m in bag.of("/fbcc/command"):  # the peg's pose in {H}: back to the controller's features
         stamp, peg = pose_from_cdr(m.data)
         radius = cell.nominal.peg_radius
         commands[_key(stamp)] = features_from_pose(peg.rotation, peg.translation, radius)

@@ -105,7 +105,7 @@ def cell_nodes(
 
 #: What the bringup records: the cell's topics but the two computed only while heard
 #: (``fbcc-report`` derives the contact state from the recorded wrench and features; replay and
-#: report do not use the TCP command); recording them costs the loop ~10 % of its cycles.
+#: report do not use the TCP command); recording them cost the loop ~7 % of its cycles.
 BRINGUP_TOPICS = [t for t in CELL_TOPICS if t not in (topics.CONTACT_STATE, topics.TCP_COMMAND)]
 
 

@@ -51,6 +51,11 @@ TABLE = (
 )  # fmt: skip
 
 
+def safety_limits(values: dict[str, Any]) -> SafetyLimits:
+    """The supervisor's limits from the parameters (also for the offline replay)."""
+    return SafetyLimits(values["timeout"], values["max_step"], values["max_step_angle"])
+
+
 class FbccControllerNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("fbcc_controller", **kwargs)
@@ -58,7 +63,7 @@ class FbccControllerNode(Node):
         sc = scenario_io.load(find_scenario(values["scenario"]))
         self.nominal = sc.geometry
         law = make_law(values["law"], sc.geometry, sc.params, sc.insertion)
-        self.sup = Supervisor(law, 1.0 / values["rate_hz"], self._limits(values))
+        self.sup = Supervisor(law, 1.0 / values["rate_hz"], safety_limits(values))
         self.auto_start = values["auto_start"]
         self.pub_command = self.create_publisher(PoseStamped, topics.COMMAND, 10)
         self.pub_phase = self.create_publisher(String, topics.PHASE, topics.PHASE_QOS)
@@ -83,12 +88,8 @@ class FbccControllerNode(Node):
                   "contact_state": self._state_said}  # fmt: skip
         return level, said, values
 
-    @staticmethod
-    def _limits(values: dict[str, Any]) -> SafetyLimits:
-        return SafetyLimits(values["timeout"], values["max_step"], values["max_step_angle"])
-
     def _apply(self, values: dict[str, Any]) -> None:
-        limits = self._limits(values)  # raises ConfigError, and the change is refused
+        limits = safety_limits(values)  # raises ConfigError, and the change is refused
         self.sup.limits = limits
 
     def now(self) -> float:

@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from fbcc_ros.bag.reader import Bag, read_bag
+from fbcc_ros.core.contact import FEATURE_NAMES
 from fbcc_ros.core.errors import FbccError, InputError
 
 #: Offline replay of a bag with its own parameters reproduces its commands within this, in m
@@ -141,7 +142,7 @@ def offline(bag: Bag, params: list[Path], out: Path | None) -> int:
     error = result.max_error()
     counts = ", ".join(f"{k} {v}" for k, v in result.counts.items())
     print(f"offline: {counts}; phase {result.phase}")
-    names = ("dx", "dy", "l", "theta_x", "theta_y")
+    names = FEATURE_NAMES
     print("largest |offline - recorded| command: "
           + ", ".join(f"{n} {e:.3g}" for n, e in zip(names, error, strict=True)))  # fmt: skip
     compared = int(np.isfinite(result.recorded).all(axis=1).sum())
