@@ -211,13 +211,18 @@ class PegHole:
         Depths beyond L are clamped to L: below the hole there is no wall.
         """
         l = np.asarray(depth, dtype=float)
-        l_wall = np.minimum(l, self.hole_depth)
+        base, per_depth = self.lever_terms()
+        return base - np.minimum(l, self.hole_depth) / 2.0 + per_depth * l  # type: ignore[no-any-return]
+
+    def lever_terms(self) -> tuple[float, float]:
+        """``(base, per_depth)`` with ``lever(l) = base - min(l, L)/2 + per_depth l`` (see
+        :meth:`boundary_lever`; the controller's compiled step takes them as numbers)."""
         mu_r = self.friction * self.hole_radius
         if self.acting_point == "hole_bottom":
             # eq. (24): My / Fx = -l/2 + L + H + mu R
-            return -l_wall / 2.0 + self.hole_depth + self.base_thickness + mu_r
+            return self.hole_depth + self.base_thickness + mu_r, 0.0
         # acting point at z_A = peg_length - l; mean contact height -l_wall/2
-        return -l_wall / 2.0 - (self.peg_length - l) + mu_r
+        return mu_r - self.peg_length, 1.0
 
     def response(self, features: ArrayLike) -> FloatArray:
         """Responses (Fx, Fy, Fz, Mx, My) for features (dx, dy, l, theta_x, theta_y).

@@ -6,9 +6,8 @@ the two points the paper claims matter:
 
 * **FBCC** drives the filter with ``A(l) F_ext`` (the direction matrix of eq. 28, from the
   boundary mapping) and integrates its output: ``x_c = x_rfr - ∫ x_d dt`` (eq. 27).
-* **Admittance** drives it with the raw wrench, moments divided by the nominal radius R so that
-  both laws use Table I's gains in the same units (N), and adds its output as a displacement:
-  ``x_c = x_rfr - x_d``. Its matrix is eq. (28) at gamma = 0: diag(1, 1, 1, 1/R, 1/R).
+* **Admittance** drives it with the raw wrench (A = I: My drives theta_y in N·m) and adds its
+  output as a displacement: ``x_c = x_rfr - x_d``.
 
 Reading of the integrator (DESIGN §5 and ``docs/reproduction.md``). Algorithm 1 writes
 ``x_rfr(i) = x_rfr(i-1) - x_d(i)``, a sum per control step, and the paper gives no control
@@ -18,7 +17,9 @@ period. A per-step sum makes the gains depend on the rate (the same Table I valu
 same at any rate fast enough for the filter. The dead band ``x_d_limit`` then is a rate too.
 
 All arrays are batched: one row per trial, shape (N, 5), in the feature order
-(dx, dy, l, theta_x, theta_y); a single vector of shape (5,) works as well.
+(dx, dy, l, theta_x, theta_y); a single vector of shape (5,) works as well. One compiled step
+(:func:`_law_rows`, numba) serves both: the simulator's thousands of trials and the 1 kHz
+controller's single row, where numpy's per-call overhead alone came to ~35 µs a period.
 """
 
 from __future__ import annotations
@@ -28,13 +29,14 @@ import math
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
+import numba
 import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike
 
 from fbcc_ros.core.contact import FloatArray, PegHole, as_rows
 from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.segmentation import apply_direction
+from fbcc_ros.core.segmentation import direct_row
 
 #: Table I of the paper: (M_dp, K_dp, M_do, K_do, M_dl, K_dl) per label; D_d = sqrt(M_d K_d).
 TABLE_I: dict[int, tuple[float, float, float, float, float, float]] = {
@@ -163,7 +165,7 @@ class ComplianceFilter:
     def __init__(self, params: ComplianceParams) -> None:
         self.params = params
         self._m, self._d, self._k = params.diagonal()
-        self._coeffs: dict[float, tuple[FloatArray, ...]] = {}
+        self._coeffs: dict[float, FloatArray] = {}
         self._x = np.zeros((1, 5))
         self._v = np.zeros((1, 5))
 
@@ -179,19 +181,31 @@ class ComplianceFilter:
 
     def step(self, u: FloatArray, dt: float) -> FloatArray:
         """Advance by dt with the input u (N, 5) held; returns x_d (N, 5)."""
-        c = self._coeffs.get(dt) or self._discretise(dt)
-        x, v = self._x, self._v
-        # [x, v](k+1) = Phi [x, v](k) + Gamma u(k)
-        self._x = c[0] * x + c[1] * v + c[4] * u
-        self._v = c[2] * x + c[3] * v + c[5] * u
-        return self._x
+        c = self.coefficients(dt)
+        x, v = self._x.copy(), self._v.copy()
+        u = np.ascontiguousarray(u, dtype=float)
+        for i in range(len(x)):
+            _filter_row(c, x[i], v[i], u[i])
+        self._x, self._v = x, v
+        return x
+
+    def coefficients(self, dt: float) -> FloatArray:
+        """:meth:`discretise`'s, from the cache after the first call."""
+        c = self._coeffs.get(dt)
+        return self.discretise(dt) if c is None else c
+
+    def state(self) -> tuple[FloatArray, FloatArray]:
+        """x_d and its rate, (N, 5) each: the arrays the law's compiled step advances."""
+        return self._x, self._v
 
     def max_period(self) -> float:
         """The longest period dt [s] that still resolves every filter (see the class doc)."""
         poles = [np.roots([m, d, k]) for m, d, k in zip(self._m, self._d, self._k, strict=True)]
         return MAX_POLE_DT / max(float(np.max(np.abs(p))) for p in poles)
 
-    def _discretise(self, dt: float) -> tuple[FloatArray, ...]:
+    def discretise(self, dt: float) -> FloatArray:
+        """The coefficients at period dt, (6, 5): rows Phi00, Phi01, Phi10, Phi11, Gamma0,
+        Gamma1 per feature (cached); refuses a period too long for the gains."""
         if not (math.isfinite(dt) and dt > 0):
             raise InputError("dt", dt, "a control period > 0 in s")
         longest = self.max_period()
@@ -208,9 +222,18 @@ class ComplianceFilter:
             e = scipy.linalg.expm(aug * dt)
             phi[:, i] = e[0, 0], e[0, 1], e[1, 0], e[1, 1]
             gam[:, i] = e[0, 2], e[1, 2]
-        coeffs = (*phi, *gam)
+        coeffs = np.vstack((phi, gam))
         self._coeffs[dt] = coeffs
         return coeffs
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def _filter_row(c: FloatArray, x: FloatArray, v: FloatArray, u: FloatArray) -> None:
+    """One trial's five filters, in place: [x, v](k+1) = Phi [x, v](k) + Gamma u(k)."""
+    for j in range(5):
+        xj, vj = x[j], v[j]
+        x[j] = c[0, j] * xj + c[1, j] * vj + c[4, j] * u[j]
+        v[j] = c[2, j] * xj + c[3, j] * vj + c[5, j] * u[j]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -244,6 +267,9 @@ class ComplianceLaw:
     period; it returns the command features x_c.
     """
 
+    #: The law's code in the compiled step (:func:`_law_rows`).
+    CODE: ClassVar[int]
+
     def __init__(
         self,
         nominal: PegHole,
@@ -251,6 +277,7 @@ class ComplianceLaw:
         insertion: Insertion | None = None,
     ) -> None:
         self.nominal = nominal
+        self._lever = nominal.lever_terms()
         self.params = params or ComplianceParams()
         self.insertion = insertion or Insertion()
         self.filter = ComplianceFilter(self.params)
@@ -259,6 +286,7 @@ class ComplianceLaw:
         self._dead_band = np.array(limits)
         self._single = True
         self.reset(np.zeros(5))
+        _load_step()
 
     def reset(self, features: ArrayLike) -> None:
         """Start an insertion from the measured features, shape (5,) or (N, 5)."""
@@ -285,73 +313,115 @@ class ComplianceLaw:
         """Per trial, whether the force limit stopped it (bool array)."""
         return self._stopped
 
-    def direction(self, response: FloatArray, depth: FloatArray) -> FloatArray:
-        """The filter input ``A F`` for responses (N, 5) at depths (N,)."""
-        raise NotImplementedError
-
     def step(self, response: ArrayLike, depth: ArrayLike, dt: float) -> FloatArray:
         """One control period: compensated response F_ext (5,) or (N, 5) in {H}, measured depth
         l [m] (scalar or (N,)), period dt [s]. Returns the command features x_c."""
         w, _ = as_rows(response, "response", "(Fx, Fy, Fz, Mx, My) in N, N·m")
-        if len(w) != len(self._command):
-            raise InputError("response", f"{len(w)} rows", f"{len(self._command)} rows, as reset")
+        n = len(self._command)
+        if len(w) != n:
+            raise InputError("response", f"{len(w)} rows", f"{n} rows, as reset")
         depth_arr = np.asarray(depth, dtype=float)
-        if depth_arr.shape != (len(w),):
-            depth_arr = np.full(len(w), depth_arr)
-        # Algorithm 1 runs while |F_ext| <= F_ext_limit; past it the insertion stops for good.
-        force2 = w[:, 0] * w[:, 0] + w[:, 1] * w[:, 1] + w[:, 2] * w[:, 2]
-        self._stopped |= force2 > self.params.F_ext_limit**2
-        running = ~self._stopped
-        x_d = self.filter.step(self.direction(w, depth_arr), dt)  # eq. (27)
-        self._elapsed += np.where(running, dt, 0.0)
-        # l_rfr: a ramp at the insertion speed to the final depth L
-        self._x_rfr[:, 2] = np.minimum(
-            self._l0 + self.insertion.speed * self._elapsed, self.insertion.depth
-        )
-        command = self._command_from(x_d, dt)
-        self._command = np.where(running[:, None], command, self._command)
+        if depth_arr.shape != (n,):
+            depth_arr = np.full(n, depth_arr)
+        c = self.filter.coefficients(dt)
+        x_d, v_d = self.filter.state()
+        base, per_depth = self._lever
+        _law_rows(self.CODE, np.ascontiguousarray(w), depth_arr, dt, c, base, per_depth,
+                  self.nominal.hole_depth, self.nominal.hole_radius, self._dead_band,
+                  self.params.F_ext_limit**2, self.insertion.speed, self.insertion.depth,
+                  x_d, v_d, self._x_rfr, self._l0, self._elapsed, self._sum, self._stopped,
+                  self._command)  # fmt: skip
         return (self._command[0] if self._single else self._command).copy()
 
-    def _command_from(self, x_d: FloatArray, dt: float) -> FloatArray:
-        raise NotImplementedError
+
+#: Codes of the laws in the compiled step.
+_FBCC, _ADMITTANCE, _NONE = 0, 1, 2
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def _law_rows(
+    law: int,
+    w: FloatArray,
+    depth: FloatArray,
+    dt: float,
+    c: FloatArray,
+    base: float,
+    per_depth: float,
+    hole_depth: float,
+    hole_radius: float,
+    dead_band: FloatArray,
+    force_limit2: float,
+    speed: float,
+    final_depth: float,
+    x_d: FloatArray,
+    v_d: FloatArray,
+    x_rfr: FloatArray,
+    l0: FloatArray,
+    elapsed: FloatArray,
+    total: FloatArray,
+    stopped: FloatArray,
+    command: FloatArray,
+) -> None:
+    """One control period of every trial (row), the state arrays advanced in place."""
+    u = np.zeros(5)
+    for i in range(w.shape[0]):
+        # Algorithm 1 runs while |F_ext| <= F_ext_limit; past it the insertion stops for good.
+        if w[i, 0] * w[i, 0] + w[i, 1] * w[i, 1] + w[i, 2] * w[i, 2] > force_limit2:
+            stopped[i] = True
+        running = not stopped[i]
+        if law == _FBCC:  # A(l) F_ext, eq. (28) with gamma(l) of eq. (29)
+            direct_row(w[i], depth[i], base, per_depth, hole_depth, hole_radius, u)
+        elif law == _ADMITTANCE:  # the raw wrench, A = I: My drives theta_y
+            u[:] = w[i]
+        _filter_row(c, x_d[i], v_d[i], u)  # eq. (27): M x_d'' + D x_d' + K x_d = u
+        if running:
+            elapsed[i] += dt
+        # l_rfr: a ramp at the insertion speed to the final depth L
+        x_rfr[i, 2] = min(l0[i] + speed * elapsed[i], final_depth)
+        if not running:
+            continue  # the command is held
+        for j in range(5):
+            if law == _FBCC:
+                # dead band (Algorithm 1): adjust only the features whose |x_d| exceeds it;
+                # eq. (27): x_c = x_rfr - ∫ x_d dt
+                if abs(x_d[i, j]) > dead_band[j]:
+                    total[i, j] += x_d[i, j] * dt
+                command[i, j] = x_rfr[i, j] - total[i, j]
+            elif law == _ADMITTANCE:
+                # x_c = x_rfr - x_d: a displacement, it lasts only while the force does
+                command[i, j] = x_rfr[i, j] - x_d[i, j]
+            else:  # position control only: the reference
+                command[i, j] = x_rfr[i, j]
+
+
+def _load_step() -> None:
+    """Loads the compiled step for the controller's argument types now (from numba's cache, or
+    compiled on a machine's first run): on the first call it cost the 1 kHz loop ~8 ms. No
+    rows, so nothing is stepped."""
+    rows, row, none = np.zeros((0, 5)), np.zeros(0), np.zeros(0, dtype=bool)
+    _law_rows(_FBCC, rows, row, 1e-3, np.zeros((6, 5)), 0.0, 0.0, 1.0, 1.0, np.zeros(5), 1.0,
+              1.0, 1.0, rows, rows, rows, row, row, rows, none, rows)  # fmt: skip
 
 
 class FbccController(ComplianceLaw):
-    """Feature-based compliance control (eq. 26-30, Algorithm 1)."""
+    """Feature-based compliance control (eq. 26-30, Algorithm 1): the filter driven by
+    ``A(l) F_ext``, its output integrated, ``x_c = x_rfr - ∫ x_d dt`` with the dead band."""
 
-    def direction(self, response: FloatArray, depth: FloatArray) -> FloatArray:
-        # A(l) F_ext, eq. (28) with gamma(l) of eq. (29)
-        return apply_direction(response, depth, self.nominal)
-
-    def _command_from(self, x_d: FloatArray, dt: float) -> FloatArray:
-        # dead band (Algorithm 1): adjust only the features whose |x_d| exceeds x_d_limit
-        active = (np.abs(x_d) > self._dead_band) & ~self._stopped[:, None]
-        self._sum += np.where(active, x_d, 0.0) * dt
-        # eq. (27): x_c = x_rfr - ∫ x_d dt
-        return self._x_rfr - self._sum
+    CODE = _FBCC
 
 
 class AdmittanceController(ComplianceLaw):
-    """The baseline: the same filter on the raw wrench, no direction matrix, no integrator."""
+    """The baseline: the same filter on the raw wrench, no direction matrix, no integrator,
+    ``x_c = x_rfr - x_d``."""
 
-    def direction(self, response: FloatArray, depth: FloatArray) -> FloatArray:
-        # the raw wrench, A = I: each feature is driven by its own response (My drives theta_y)
-        return response
-
-    def _command_from(self, x_d: FloatArray, dt: float) -> FloatArray:
-        # x_c = x_rfr - x_d: the adjustment is a displacement, it lasts only while the force does
-        return self._x_rfr - x_d
+    CODE = _ADMITTANCE
 
 
 class NoFeedback(ComplianceLaw):
     """Position control only: the reference ramp, the force ignored (the paper's "no force
     feedback" runs, Fig. 13). The force limit still stops it."""
 
-    def direction(self, response: FloatArray, depth: FloatArray) -> FloatArray:
-        return np.zeros_like(response)
-
-    def _command_from(self, x_d: FloatArray, dt: float) -> FloatArray:
-        return self._x_rfr.copy()
+    CODE = _NONE
 
 
 #: The control laws by the name used in scenarios and parameters.

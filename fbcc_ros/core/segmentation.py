@@ -26,6 +26,9 @@ Boundary mapping (DESIGN §5 on eq. 21, 24, 28-29). In the normalised plane of F
 
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -150,13 +153,35 @@ def direction_matrix(depth: ArrayLike, peghole: PegHole) -> FloatArray:
 
 
 def apply_direction(response: FloatArray, depth: FloatArray, peghole: PegHole) -> FloatArray:
-    """``A(l) F`` for responses (N, 5) at depths (N,), without building A (the controller's
-    per-step path; equal to :func:`direction_matrix` times F, which a test pins)."""
-    sg, cg_r = _direction_terms(depth, peghole)
-    u = response.copy()
-    u[:, 3] = sg * response[:, 1] + cg_r * response[:, 3]
-    u[:, 4] = -sg * response[:, 0] + cg_r * response[:, 4]
-    return u
+    """``A(l) F`` for responses (N, 5) at depths (N,), without building A: the rows the
+    controller's compiled step computes (:func:`direct_row`), equal to
+    :func:`direction_matrix` times F, which a test pins."""
+    w = np.ascontiguousarray(response, dtype=float)
+    l = np.ascontiguousarray(np.broadcast_to(depth, (len(w),)), dtype=float)
+    out = np.empty_like(w)
+    base, per_depth = peghole.lever_terms()
+    for i in range(len(w)):
+        direct_row(w[i], l[i], base, per_depth, peghole.hole_depth, peghole.hole_radius, out[i])
+    return out
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def direct_row(
+    w: FloatArray,
+    depth: float,
+    base: float,
+    per_depth: float,
+    hole_depth: float,
+    hole_radius: float,
+    out: FloatArray,
+) -> None:
+    """One row of ``A(l) F`` into ``out`` (5,); the lever is ``PegHole.lever_terms``'s."""
+    # gamma of eq. (29): tan(gamma) = lever / R, lever of eq. (24)
+    gamma = math.atan((base - min(depth, hole_depth) / 2.0 + per_depth * depth) / hole_radius)
+    sg, cg_r = math.sin(gamma), math.cos(gamma) / hole_radius
+    out[0], out[1], out[2] = w[0], w[1], w[2]
+    out[3] = sg * w[1] + cg_r * w[3]  # theta_x: sin(gamma) Fy + cos(gamma) Mx / R
+    out[4] = -sg * w[0] + cg_r * w[4]  # theta_y: -sin(gamma) Fx + cos(gamma) My / R
 
 
 def _direction_terms(depth: ArrayLike, peghole: PegHole) -> tuple[FloatArray, FloatArray]:

@@ -61,6 +61,9 @@ class Supervisor:
     """
 
     def __init__(self, law: ComplianceLaw, dt: float, limits: SafetyLimits) -> None:
+        # a rate too low for the gains is refused here, at start-up, not at the first command;
+        # and the coefficients (matrix exponentials, ~1.5 ms) are not computed in the loop
+        law.filter.discretise(dt)
         self.law = law
         self.dt = dt
         self.limits = limits
@@ -146,13 +149,14 @@ class Supervisor:
         if not self.active or self.features is None or self.command is None:
             return self.command
         x_c = self.law.step(w, self.features[2], self.dt)
-        if self.law.phase[0] == "force_limit":
+        law_phase = self.law.phase[0]
+        if law_phase == "force_limit":
             self.phase = "force_limit"
             self.reason = (
                 f"|F| = {np.linalg.norm(w[:3]):.1f} N over the limit "
                 f"{self.law.params.F_ext_limit} N"
             )
-        elif self.law.phase[0] == "inserted":
+        elif law_phase == "inserted":
             self.phase = "inserted"
         # at most max_step per command, whatever the law asks
         self.command = self.command + np.clip(x_c - self.command, -self._max_step, self._max_step)

@@ -4,6 +4,8 @@
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -109,6 +111,39 @@ def test_a_command_never_jumps_more_than_the_step_limit() -> None:
         assert np.all(np.abs(command[:3] - previous[:3]) <= 1e-6 + 1e-15)
         assert np.all(np.abs(command[3:] - previous[3:]) <= 1e-5 + 1e-15)
         previous = command
+
+
+def test_a_rate_too_low_for_the_gains_is_refused_at_construction() -> None:
+    """Not at the first command of an insertion, when the cell is already moving."""
+    sc = scenario.validate(paper_scenario("interference", "fbcc"))
+    params = sc.params.from_mapping({"M_do": 1e-4})  # tilt mode at 3162 rad/s: needs >= 3.2 kHz
+    law = make_law("fbcc", sc.geometry, params, sc.insertion)
+    with pytest.raises(ConfigError) as err:
+        Supervisor(law, 1e-3, SafetyLimits())
+    assert err.value.field == "dt" and "Hz" in str(err.value)
+    Supervisor(law, 1e-4, SafetyLimits())  # 10 kHz resolves it
+
+
+def test_compiled_kernels_are_loaded_before_the_loop() -> None:
+    """Constructing the controller's law and the mock's plant loads their numba kernels (from
+    the cache): loaded at the first period instead, they cost the 1 kHz loop ~8 ms and left
+    ~47k objects for the garbage collector to walk. A fresh interpreter, so no other test has
+    loaded them already."""
+    code = """if True:
+        from fbcc_ros.cli.common import paper_scenario
+        from fbcc_ros.core import scenario, contact, control
+        from fbcc_ros.core.cell import MockCell
+        from fbcc_ros.core.kinematics import RobotModel, aligned_hole_at
+        sc = scenario.validate(paper_scenario("interference", "fbcc"))
+        assert not control._law_rows.signatures and not contact._response_kernel.signatures
+        control.make_law("fbcc", sc.geometry, sc.params, sc.insertion)
+        robot = RobotModel.from_name("iiwa14")
+        MockCell(sc, robot, aligned_hole_at(robot.peg_in_base(robot.home)))
+        print(len(control._law_rows.signatures), len(contact._response_kernel.signatures))
+    """
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["1", "1"]
 
 
 def test_bad_limits() -> None:
