@@ -320,7 +320,8 @@ class ComplianceLaw:
         n = len(self._command)
         if len(w) != n:
             raise InputError("response", f"{len(w)} rows", f"{n} rows, as reset")
-        depth_arr = np.asarray(depth, dtype=float)
+        # contiguous, as _load_step loaded it (a column of the simulator's poses is not)
+        depth_arr = np.ascontiguousarray(depth, dtype=float)
         if depth_arr.shape != (n,):
             depth_arr = np.full(n, depth_arr)
         c = self.filter.coefficients(dt)
