@@ -112,4 +112,6 @@ def test_a_killed_recorder_leaves_a_readable_truncated_bag_the_report_says_so(
     summary = json.loads((out / "summary.json").read_text())
     assert summary["truncated"] == bag.truncated
     assert "**The bag is truncated**" in (out / "summary.md").read_text()
-    assert summary["final_phase"] == "inserting"  # where the recording stopped
+    # the last phase the bag holds, not the run's (the ramp may end right at the kill)
+    phases = [cdr.decode_string(m.data) for m in bag.messages if m.topic == "/fbcc/phase"]
+    assert phases[-1] in ("inserting", "inserted") and summary["final_phase"] == phases[-1]
