@@ -1,11 +1,14 @@
 """fbcc_replay: a recorded session back onto the ROS graph with its timing, or offline.
 
-    fbcc_replay BAG [--rate R] [--topics T [T ...]] [--start S] [--loop] [--ros-args ...]
+    fbcc_replay BAG [--rate R] [--topics T [T ...]] [--start S] [--loop]
+                    [--wait-for-subscribers S] [--ros-args ...]
     fbcc_replay BAG --offline [--params FILE ...] [--out DIR]
 
 **Republish** (default): every message of the bag (or of ``--topics``) is published as it was
 recorded, raw, at its recorded time from the first one, scaled by ``1 / rate``; ``--start``
-skips the first S seconds, ``--loop`` starts again at the end. Each topic is offered with the
+skips the first S seconds, ``--loop`` starts again at the end. Before the first message it
+waits 0.5 s for discovery, or with ``--wait-for-subscribers S`` until every topic has a matched
+subscriber (at most S seconds; a topic still unheard then is named). Each topic is offered with the
 QoS it was recorded with (transient local where the recorded publisher was latched, so a late
 subscriber still gets the last phase). Progress is printed each second; Ctrl-C stops.
 
@@ -50,6 +53,14 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--topics", nargs="+", default=None, help="only these topics")
     parser.add_argument("--start", type=float, default=0.0, help="skip the first S seconds")
     parser.add_argument("--loop", action="store_true", help="start again at the end")
+    parser.add_argument(
+        "--wait-for-subscribers",
+        type=float,
+        default=None,
+        metavar="S",
+        help="before the first message, wait up to S seconds until every topic has a "
+        "subscriber (default: wait 0.5 s for discovery)",
+    )
     parser.add_argument(
         "--offline",
         action="store_true",
@@ -96,7 +107,30 @@ def _qos(profiles: list[dict[str, Any]]) -> Any:
     )
 
 
-def republish(bag: Bag, messages: list[Any], rate: float, loop: bool, ros_args: list[str]) -> int:
+def _wait_for_subscribers(pubs: dict[str, Any], seconds: float | None) -> None:
+    """Discovery before the first message: a fixed 0.5 s, or until every publisher has matched
+    a subscriber (at most ``seconds``). Once the writer has matched a reliable reader, the
+    reader gets every message from then on."""
+    if seconds is None:
+        time.sleep(0.5)
+        return
+    deadline = time.monotonic() + seconds
+    while unheard := sorted(t for t, pub in pubs.items() if pub.get_subscription_count() == 0):
+        if time.monotonic() >= deadline:
+            print(f"fbcc_replay: no subscriber after {seconds:g} s on {unheard}; publishing "
+                  "anyway", file=sys.stderr, flush=True)  # fmt: skip
+            return
+        time.sleep(0.01)
+
+
+def republish(
+    bag: Bag,
+    messages: list[Any],
+    rate: float,
+    loop: bool,
+    ros_args: list[str],
+    wait_for_subscribers: float | None = None,
+) -> int:
     """Publishes ``messages`` at their recorded pace / ``rate``; returns how many."""
     import rclpy
     from rclpy.duration import Duration
@@ -110,7 +144,7 @@ def republish(bag: Bag, messages: list[Any], rate: float, loop: bool, ros_args: 
     try:
         pubs = {t: node.create_publisher(message_class(bag.topics[t]), t, _qos(bag.qos.get(t, [])))
                 for t in {m.topic for m in messages}}  # fmt: skip
-        time.sleep(0.5)  # discovery: let subscribers that are up match before the first message
+        _wait_for_subscribers(pubs, wait_for_subscribers)
         t0 = messages[0].log_time_ns
         span = (messages[-1].log_time_ns - t0) * 1e-9 / rate
         sent = 0
@@ -179,6 +213,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if not args.rate > 0:
             raise InputError("--rate", args.rate, "a speed factor > 0")
+        wait = args.wait_for_subscribers
+        if wait is not None and not 0 <= wait < float("inf"):
+            raise InputError("--wait-for-subscribers", wait, "a time >= 0 [s]")
         bag = read_bag(args.bag)
         if bag.truncated:
             print(f"fbcc_replay: the bag is truncated ({bag.truncated}); replaying what it has",
@@ -190,7 +227,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"fbcc_replay: {len(messages)} messages on {len({m.topic for m in messages})} "
               f"topics, {span:.1f} s at rate {args.rate:g}{' (loop)' if args.loop else ''}",
               flush=True)  # fmt: skip
-        sent = republish(bag, messages, args.rate, args.loop, ros_args)
+        sent = republish(bag, messages, args.rate, args.loop, ros_args, wait)
     except FbccError as exc:
         print(f"fbcc_replay: {exc}", file=sys.stderr)
         return 2

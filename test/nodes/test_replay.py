@@ -47,7 +47,8 @@ def test_republished_at_the_recorded_pace_scaled_by_the_rate() -> None:
     node.create_subscription(String, "/fbcc/phase", lambda m: phases.append(m.data),
                              topics.PHASE_QOS)  # fmt: skip
     executor.add_node(node)
-    proc = _replay(str(BAG), "--rate", "0.5", "--topics", "/joint_states", "/fbcc/phase")
+    topics_ = ("--topics", "/joint_states", "/fbcc/phase")
+    proc = _replay(str(BAG), "--rate", "0.5", *topics_, "--wait-for-subscribers", "20")
     try:
         deadline = time.monotonic() + 30.0
         while proc.poll() is None and time.monotonic() < deadline:
@@ -88,6 +89,7 @@ def _bag_with_only_the_phase(folder: Path) -> Path:
         ("no joint states", ["{phase_only}", "--offline"], "messages on /joint_states"),
         ("unknown topic", [str(BAG), "--topics", "/nope"], "topics of the bag"),
         ("bad rate", [str(BAG), "--rate", "0"], "--rate"),
+        ("bad wait", [str(BAG), "--wait-for-subscribers", "-1"], "--wait-for-subscribers"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_two(case, args, message, tmp_path: Path) -> None:
@@ -114,3 +116,11 @@ def test_the_schedule_filters_topics_and_skips_the_start() -> None:
     )
     expected = sum(first + 0.5e9 <= m.log_time_ns for m in bag.of("/ft_sensor/raw"))
     assert len(chosen) == expected > 300
+
+
+def test_a_topic_nobody_hears_is_named_after_the_wait_and_published_anyway() -> None:
+    proc = _replay(str(BAG), "--topics", "/fbcc/phase", "--wait-for-subscribers", "0.3")
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert "no subscriber after 0.3 s on ['/fbcc/phase']" in err, err
+    assert "published 3 messages" in out, out  # the bag holds three phases
