@@ -128,9 +128,9 @@ class MockCell:
             alpha = self._alpha[dt] = 1.0 - math.exp(-dt / lag) if lag > 0 else 1.0
         q_prev = self.q
         # q += (1 - exp(-dt/tau)) (q_cmd - q), within the velocity and position limits
-        step = np.clip(alpha * (self.q_cmd - q_prev), -self.robot.velocity_limit * dt,
-                       self.robot.velocity_limit * dt)  # fmt: skip
-        self.q = np.clip(q_prev + step, self.robot.lower, self.robot.upper)
+        reach = self.robot.velocity_limit * dt
+        step = (alpha * (self.q_cmd - q_prev)).clip(-reach, reach)
+        self.q = (q_prev + step).clip(self.robot.lower, self.robot.upper)
         x = self.truth.features(self.q)
         x[2] = max(x[2], 0.0)  # above the hole: no contact
         response = self.geometry.response(x)

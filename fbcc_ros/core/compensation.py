@@ -41,7 +41,14 @@ from fbcc_ros.core.contact import PegHole
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.filters import LowPass, dead_band
 from fbcc_ros.core.kinematics import RobotModel
-from fbcc_ros.core.payload import GRAVITY_BASE, Calibration, Motion, Payload, compensate
+from fbcc_ros.core.payload import (
+    GRAVITY_BASE,
+    Calibration,
+    Motion,
+    Payload,
+    payload_wrench,
+    subtract,
+)
 from fbcc_ros.core.wrench import response_from_wrench, transfer, virtual_wrench
 
 FloatArray = NDArray[np.float64]
@@ -171,11 +178,13 @@ class Compensator:
             robot.add_frame(SENSOR_FRAME, setup.pose)
             self._hole_from_base = setup.hole_in_base.inverse()
         else:
-            # A sensor under the hole does not move: {S} in {H} and gravity in {S} are constant.
+            # A sensor under the hole does not move: {S} in {H}, gravity in {S} and so the
+            # payload's wrench are constant.
             self._static = (
                 setup.pose,
                 Motion.at_rest(setup.hole_in_base.rotation @ setup.pose.rotation),
             )
+            self._static_payload = payload_wrench(setup.payload, self._static[1])
 
     @property
     def taring(self) -> bool:
@@ -256,7 +265,7 @@ class Compensator:
             self._add_tare(stamp, wrench, motion)
             return None
         try:
-            contact = compensate(wrench, self.setup.payload, motion, self._bias)
+            contact = subtract(wrench, self._payload(motion), self._bias)
         except InputError:
             self.counts["non_finite"] += 1
             return None
@@ -279,7 +288,7 @@ class Compensator:
 
     def _add_tare(self, stamp: float, wrench: ArrayLike, motion: Motion) -> None:
         try:  # the payload alone: the reading with a zero bias
-            self._tare.append(compensate(wrench, self.setup.payload, motion, np.zeros(6)))
+            self._tare.append(subtract(wrench, self._payload(motion), np.zeros(6)))
         except InputError:
             self.counts["non_finite"] += 1
             return
@@ -287,6 +296,12 @@ class Compensator:
         self.counts["taring"] += 1
         if len(self._tare) == self.setup.tare_samples:
             self._bias = np.mean(self._tare, axis=0)  # b = mean(reading - payload wrench)
+
+    def _payload(self, motion: Motion) -> FloatArray:
+        """The payload's wrench on the sensor in {S}: computed once for a static sensor."""
+        if self.setup.placement == "under_hole":
+            return self._static_payload
+        return payload_wrench(self.setup.payload, motion)
 
     @property
     def bias(self) -> FloatArray:

@@ -304,9 +304,15 @@ class ComplianceLaw:
     def phase(self) -> list[str]:
         """Per trial: ``inserting``, ``inserted`` (the ramp reached the depth) or
         ``force_limit`` (stopped, command held)."""
-        done = self._l0 + self.insertion.speed * self._elapsed >= self.insertion.depth
-        codes = np.where(self._stopped, 2, np.where(done, 1, 0))
-        return [PHASES[c] for c in codes]
+        return [self.phase_of(i) for i in range(len(self._command))]
+
+    def phase_of(self, trial: int) -> str:
+        """One trial's :attr:`phase` (the controller's, each period: no arrays built)."""
+        if self._stopped[trial]:
+            return PHASES[2]
+        ramp = self.insertion
+        done = self._l0[trial] + ramp.speed * self._elapsed[trial] >= ramp.depth
+        return PHASES[1] if done else PHASES[0]
 
     @property
     def stopped(self) -> FloatArray:

@@ -51,8 +51,12 @@ FloatArray = NDArray[np.float64]
 R_ALIGNED = np.diag([1.0, -1.0, -1.0])
 
 
-def _swing(axis: tuple[float, float, float]) -> FloatArray:
-    """The minimal rotation taking z to the unit vector ``axis`` (Rodrigues, closed form).
+Rows = tuple[tuple[float, float, float], ...]
+
+
+def _swing(axis: tuple[float, float, float]) -> Rows:
+    """The minimal rotation taking z to the unit vector ``axis`` (Rodrigues, closed form), as
+    rows of floats.
 
     .. math::
         S = \\begin{pmatrix} 1 - a_x^2/(1+a_z) & -a_x a_y/(1+a_z) & a_x \\\\
@@ -61,12 +65,10 @@ def _swing(axis: tuple[float, float, float]) -> FloatArray:
     """
     ax, ay, az = axis
     c = 1.0 / (1.0 + az)
-    return np.array(
-        [
-            [1.0 - ax * ax * c, -ax * ay * c, ax],
-            [-ax * ay * c, 1.0 - ay * ay * c, ay],
-            [-ax, -ay, az],
-        ]
+    return (
+        (1.0 - ax * ax * c, -ax * ay * c, ax),
+        (-ax * ay * c, 1.0 - ay * ay * c, ay),
+        (-ax, -ay, az),
     )
 
 
@@ -139,8 +141,9 @@ def pose_from_features(
     a_z = axis[2]
     sin_t = math.hypot(axis[0], axis[1])
     c, s = math.cos(spin), math.sin(spin)
-    # R_HP = S(a) R_aligned R_z(spin), the last two multiplied out.
-    rotation = _swing(axis) @ np.array([[c, -s, 0.0], [-s, -c, 0.0], [0.0, 0.0, -1.0]])
+    # R_HP = S(a) R_aligned R_z(spin) = S(a) [[c, -s, 0], [-s, -c, 0], [0, 0, -1]], multiplied
+    # out on floats (no 3x3 products at 1 kHz).
+    rotation = np.array([[s0 * c - s1 * s, -s0 * s - s1 * c, -s2] for s0, s1, s2 in _swing(axis)])
     along = 0.5 * depth + peg_radius * sin_t * (1.0 - 1.0 / a_z)
     position = np.array(
         [

@@ -116,10 +116,16 @@ def compensate(
 
     Raises :class:`InputError` on a non-finite reading rather than propagate it.
     """
+    return subtract(wrench_measured, payload_wrench(payload, motion), _vector(bias, "bias", 6))
+
+
+def subtract(wrench_measured: ArrayLike, payload: FloatArray, bias: FloatArray) -> FloatArray:
+    """:func:`compensate` with the payload's wrench already known (a sensor that does not move
+    feels a constant one): ``w_contact = w_measured - w_payload - b``."""
     measured = np.asarray(wrench_measured, dtype=float)
     if measured.shape != (6,) or not np.isfinite(measured).all():
         raise InputError("wrench", wrench_measured, "6 finite numbers (Fx, Fy, Fz, Tx, Ty, Tz)")
-    return measured - payload_wrench(payload, motion) - _vector(bias, "bias", 6)
+    return measured - payload - bias
 
 
 @dataclasses.dataclass(frozen=True)

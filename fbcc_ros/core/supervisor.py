@@ -149,7 +149,7 @@ class Supervisor:
         if not self.active or self.features is None or self.command is None:
             return self.command
         x_c = self.law.step(w, self.features[2], self.dt)
-        law_phase = self.law.phase[0]
+        law_phase = self.law.phase_of(0)
         if law_phase == "force_limit":
             self.phase = "force_limit"
             self.reason = (
@@ -159,5 +159,5 @@ class Supervisor:
         elif law_phase == "inserted":
             self.phase = "inserted"
         # at most max_step per command, whatever the law asks
-        self.command = self.command + np.clip(x_c - self.command, -self._max_step, self._max_step)
+        self.command = self.command + (x_c - self.command).clip(-self._max_step, self._max_step)
         return self.command
