@@ -24,10 +24,10 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+import numba
 import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
-from scipy.linalg import lapack
 
 from fbcc_ros.core.errors import ConfigError, FbccError, InputError
 from fbcc_ros.core.features import (
@@ -354,14 +354,20 @@ def solve_ik(
         J_e = -J_{\\log_6} J_{P}^{local}, \\quad
         \\Delta q = -J_e^T (J_e J_e^T + \\lambda^2 I)^{-1} e
     """
-    q0 = robot.check_joints(q_start, "q_start")
+    return _clik(robot, peg_in_base, _checked_start(robot, q_start, dt), dt, settings)
+
+
+def _checked_start(robot: RobotModel, q_start: ArrayLike, dt: float | None, field: str = "q_start"
+                   ) -> FloatArray:  # fmt: skip
+    """The IK's start as a float array: finite, within the position limits; and ``dt`` > 0."""
+    q0 = robot.check_joints(q_start, field)
     if not robot.within_limits(q0):
         limits = zip(robot.joint_names, q0, robot.lower, robot.upper, strict=True)
         outside = [name for name, v, lo, hi in limits if not lo <= v <= hi]
-        raise InputError("q_start", q0.tolist(), f"joints within their position limits {outside}")
+        raise InputError(field, q0.tolist(), f"joints within their position limits {outside}")
     if dt is not None and not (dt > 0.0 and math.isfinite(dt)):
         raise InputError("dt", dt, "a control period > 0 [s]")
-    return _clik(robot, peg_in_base, q0, dt, settings)
+    return q0
 
 
 def _clik(
@@ -374,13 +380,15 @@ def _clik(
         reach = robot.velocity_limit * dt
         lower, upper = np.maximum(lower, q0 - reach), np.minimum(upper, q0 + reach)
     damping2, tol2 = settings.damping**2, settings.tolerance**2
+    free = np.zeros(q0.size, dtype=np.bool_)
     q = q0.copy()
     for iteration in range(settings.max_iterations + 1):
         pin.forwardKinematics(model, data, q)
         target_in_peg = pin.updateFramePlacement(model, data, fid).actInv(peg_in_base)
         # Error twist in the peg frame, e = log6(T(q)^-1 T*).
         err = pin.log6(target_in_peg).vector
-        pos2, rot2 = float(err[:3] @ err[:3]), float(err[3:] @ err[3:])
+        e0, e1, e2, e3, e4, e5 = err.tolist()
+        pos2, rot2 = e0 * e0 + e1 * e1 + e2 * e2, e3 * e3 + e4 * e4 + e5 * e5
         if pos2 <= tol2 and rot2 <= tol2:
             return IkSolution(q, iteration, math.sqrt(pos2), math.sqrt(rot2))
         if iteration == settings.max_iterations:
@@ -389,18 +397,15 @@ def _clik(
         # reuse the placements of forwardKinematics above.
         pin.computeJointJacobians(model, data)
         jac = pin.getFrameJacobian(model, data, fid, pin.LOCAL)
-        jac_e = -pin.Jlog6(target_in_peg.inverse()) @ jac
-        step = _dls_step(jac_e, err, damping2, settings.max_step)
-        unclipped = q + step
-        q_next = np.minimum(np.maximum(unclipped, lower), upper)
-        if (q_next != unclipped).any():
+        jlog = pin.Jlog6(target_in_peg.inverse())
+        args = (q, jlog, jac, err, lower, upper)
+        step, q_next, clipped = _dls_update(*args, free, damping2, settings.max_step)
+        if clipped:
             # Active set: joints pinned at a bound that the step pushes further are taken out
             # of the Jacobian, so the others (a redundant arm's null space) carry the correction.
             blocked = ((q <= lower) & (step < 0.0)) | ((q >= upper) & (step > 0.0))
             if blocked.any():
-                jac_e[:, blocked] = 0.0
-                step = _dls_step(jac_e, err, damping2, settings.max_step)
-                q_next = np.minimum(np.maximum(q + step, lower), upper)
+                step, q_next, _ = _dls_update(*args, blocked, damping2, settings.max_step)
             if float(np.abs(q_next - q).max()) < _STALLED:
                 break  # every useful direction is blocked by a bound: fail now, not in 200 steps
         q = q_next
@@ -408,17 +413,85 @@ def _clik(
     raise IkError(_why(robot, q, lower, upper, q0, dt), pos_err, rot_err, iteration)
 
 
-def _dls_step(jac_e: FloatArray, err: FloatArray, damping2: float, max_step: float) -> FloatArray:
-    """Damped least squares, ``-J^T (J J^T + lambda^2 I)^-1 e``, scaled to at most
-    ``max_step`` per joint."""
-    normal = jac_e @ jac_e.T
-    normal.flat[::7] += damping2
-    # (J J^T + lambda^2 I) is symmetric positive definite: LAPACK's Cholesky solve, 4x cheaper
-    # per call than numpy.linalg.solve at this size.
-    _, weights, _ = lapack.dposv(normal, err)
-    step = -jac_e.T @ weights
-    largest = float(np.abs(step).max())
-    return step * (max_step / largest) if largest > max_step else step
+@numba.njit(cache=True)  # type: ignore[misc]
+def _dls_update(
+    q: FloatArray,
+    jlog: FloatArray,
+    jac: FloatArray,
+    err: FloatArray,
+    lower: FloatArray,
+    upper: FloatArray,
+    blocked: NDArray[np.bool_],
+    damping2: float,
+    max_step: float,
+) -> tuple[FloatArray, FloatArray, bool]:
+    """One damped-least-squares step, compiled (numpy's per-call overhead was ~8 µs of it):
+
+    .. math::
+        J_e = -J_{\\log_6} J, \\quad
+        \\Delta q = -J_e^T (J_e J_e^T + \\lambda^2 I)^{-1} e
+
+    with the ``blocked`` joints' columns of ``J_e`` zeroed, ``Delta q`` scaled to at most
+    ``max_step`` per joint. Returns ``(Delta q, clip(q + Delta q, lower, upper), clipped)``.
+    """
+    n = q.size
+    jac_e = np.zeros((6, n))
+    for i in range(6):
+        for j in range(n):
+            if not blocked[j]:
+                acc = 0.0
+                for k in range(6):
+                    acc += jlog[i, k] * jac[k, j]
+                jac_e[i, j] = -acc
+    # A = J_e J_e^T + lambda^2 I is symmetric positive definite: Cholesky, A = L L^T
+    chol = np.zeros((6, 6))
+    for i in range(6):
+        for j in range(i + 1):
+            acc = 0.0
+            for k in range(n):
+                acc += jac_e[i, k] * jac_e[j, k]
+            if i == j:
+                acc += damping2
+            for k in range(j):
+                acc -= chol[i, k] * chol[j, k]
+            chol[i, j] = math.sqrt(acc) if i == j else acc / chol[j, j]
+    # A w = e: L y = e forward, then L^T w = y backward
+    w = np.empty(6)
+    for i in range(6):
+        acc = err[i]
+        for k in range(i):
+            acc -= chol[i, k] * w[k]
+        w[i] = acc / chol[i, i]
+    for i in range(5, -1, -1):
+        acc = w[i]
+        for k in range(i + 1, 6):
+            acc -= chol[k, i] * w[k]
+        w[i] = acc / chol[i, i]
+    step = np.empty(n)
+    largest = 0.0
+    for j in range(n):
+        acc = 0.0
+        for i in range(6):
+            acc -= jac_e[i, j] * w[i]
+        step[j] = acc
+        largest = max(largest, abs(acc))
+    if largest > max_step:
+        step *= max_step / largest
+    q_next = np.empty(n)
+    clipped = False
+    for j in range(n):
+        unclipped = q[j] + step[j]
+        q_next[j] = min(max(unclipped, lower[j]), upper[j])
+        clipped = clipped or q_next[j] != unclipped
+    return step, q_next, clipped
+
+
+def _load_dls(n: int) -> None:
+    """Loads the compiled step now (from numba's cache, or compiled on a machine's first run),
+    not inside the first control period. A zero error: nothing to solve."""
+    zeros, eye = np.zeros(n), np.eye(6)
+    _dls_update(zeros, eye, np.zeros((6, n)), np.zeros(6), zeros - 1.0, zeros + 1.0,
+                np.zeros(n, dtype=np.bool_), 1e-8, 0.2)  # fmt: skip
 
 
 #: A clipped step smaller than this [rad] means the solver is pinned against its bounds.
@@ -477,6 +550,7 @@ class CellKinematics:
         self.hole_in_base = hole_in_base.copy()
         self.peg_radius = peg_radius
         self.settings = settings
+        _load_dls(robot.nq)
 
     def peg_in_hole(self, q: ArrayLike) -> pin.SE3:
         """``T_H_P`` at joints ``q``."""
@@ -509,12 +583,12 @@ class CellKinematics:
         Raises :class:`IkError` rather than return a command that misses the target.
         """
         robot = self.robot
-        q_now = robot.check_joints(q_current, "q_current")
+        q_now = _checked_start(robot, q_current, dt, "q_current")
         spin = spin_of(
             self.hole_in_base.actInv(robot._frame_in_base(q_now, robot.peg_id)).rotation
         )
         target = self.peg_target(command_features, spin)
-        solution = solve_ik(robot, target, q_now, dt, self.settings)
+        solution = _clik(robot, target, q_now, dt, self.settings)
         flange = target * robot._flange_in_peg
         return TcpCommand(solution.q, flange, target, solution.iterations)
 

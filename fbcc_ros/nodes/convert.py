@@ -7,6 +7,7 @@ finite pose, a non-zero quaternion, every joint named) are made here.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from functools import lru_cache
 
@@ -42,12 +43,13 @@ def wrench_to_cdr(wrench: FloatArray, frame_id: str, seconds: float) -> bytes:
 def pose_from_cdr(data: bytes) -> tuple[float, pin.SE3]:
     """PoseStamped → (stamp [s], pose); the quaternion is normalised."""
     stamp, _, (x, y, z, qx, qy, qz, qw) = cdr.decode_pose(data)
-    norm = np.sqrt(qx**2 + qy**2 + qz**2 + qw**2)
-    if not np.isfinite([x, y, z, norm]).all() or norm < 1e-6:
+    norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    finite = math.isfinite(x) and math.isfinite(y) and math.isfinite(z) and math.isfinite(norm)
+    if not finite or norm < 1e-6:
         raise InputError("pose", (x, y, z, qx, qy, qz, qw),
                          "a finite position and a non-zero quaternion")  # fmt: skip
     quat = pin.Quaternion(qw / norm, qx / norm, qy / norm, qz / norm)
-    return stamp_to_seconds(stamp), pin.SE3(quat.matrix(), np.array([x, y, z]))
+    return stamp_to_seconds(stamp), pin.SE3(quat, np.array([x, y, z]))
 
 
 def pose_to_cdr(pose: pin.SE3, frame_id: str, seconds: float) -> bytes:
@@ -62,27 +64,35 @@ def joints_from_cdr(
     """JointState → (stamp [s], positions, velocities or None if absent), in ``names`` order."""
     stamp, _, got, position, velocity, _ = cdr.decode_joints(data)
     order = _order(tuple(got), names, len(position), "position")
-    q = np.array(position)[order]
+    q = _ordered(position, order)
     if len(velocity) != len(got):
         return stamp_to_seconds(stamp), q, None
-    return stamp_to_seconds(stamp), q, np.array(velocity)[order]
+    return stamp_to_seconds(stamp), q, _ordered(velocity, order)
 
 
 def efforts_from_cdr(data: bytes, names: tuple[str, ...]) -> tuple[float, FloatArray]:
     """JointState's ``effort`` (e.g. external joint torques) → (stamp [s], in ``names`` order)."""
     stamp, _, got, _, _, effort = cdr.decode_joints(data)
     order = _order(tuple(got), names, len(effort), "effort")
-    return stamp_to_seconds(stamp), np.array(effort)[order]
+    return stamp_to_seconds(stamp), _ordered(effort, order)
 
 
 @lru_cache(maxsize=8)
-def _order(got: tuple[str, ...], names: tuple[str, ...], size: int, field: str) -> list[int]:
+def _order(
+    got: tuple[str, ...], names: tuple[str, ...], size: int, field: str
+) -> list[int] | None:
+    """Where each of ``names`` is in ``got``; None if in the same order (nothing to pick)."""
     index = {name: i for i, name in enumerate(got)}
     if any(n not in index for n in names):
         raise InputError("joint_states.name", list(got), f"all of {list(names)}")
     if size != len(got):
         raise InputError(field, size, f"{len(got)} values, one per name")
-    return [index[n] for n in names]
+    order = [index[n] for n in names]
+    return None if order == list(range(len(got))) else order
+
+
+def _ordered(values: Sequence[float], order: list[int] | None) -> FloatArray:
+    return np.array(values) if order is None else np.array(values)[order]
 
 
 def joints_to_cdr(names: Sequence[str], q: FloatArray, dq: FloatArray, seconds: float) -> bytes:

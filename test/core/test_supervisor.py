@@ -125,25 +125,27 @@ def test_a_rate_too_low_for_the_gains_is_refused_at_construction() -> None:
 
 
 def test_compiled_kernels_are_loaded_before_the_loop() -> None:
-    """Constructing the controller's law and the mock's plant loads their numba kernels (from
-    the cache): loaded at the first period instead, they cost the 1 kHz loop ~8 ms and left
-    ~47k objects for the garbage collector to walk. A fresh interpreter, so no other test has
-    loaded them already."""
+    """Constructing the controller's law, the mock's plant and the kinematics' IK loads their
+    numba kernels (from the cache): loaded at the first period instead, they cost the 1 kHz
+    loop ~8 ms and left ~47k objects for the garbage collector to walk. A fresh interpreter,
+    so no other test has loaded them already."""
     code = """if True:
         from fbcc_ros.cli.common import paper_scenario
-        from fbcc_ros.core import scenario, contact, control
+        from fbcc_ros.core import scenario, contact, control, kinematics as kin
         from fbcc_ros.core.cell import MockCell
-        from fbcc_ros.core.kinematics import RobotModel, aligned_hole_at
         sc = scenario.validate(paper_scenario("interference", "fbcc"))
-        assert not control._law_rows.signatures and not contact._response_kernel.signatures
+        kernels = (control._law_rows, contact._response_kernel, kin._dls_update)
+        assert not any(k.signatures for k in kernels)
         control.make_law("fbcc", sc.geometry, sc.params, sc.insertion)
-        robot = RobotModel.from_name("iiwa14")
-        MockCell(sc, robot, aligned_hole_at(robot.peg_in_base(robot.home)))
-        print(len(control._law_rows.signatures), len(contact._response_kernel.signatures))
+        robot = kin.RobotModel.from_name("iiwa14")
+        hole = kin.aligned_hole_at(robot.peg_in_base(robot.home))
+        MockCell(sc, robot, hole)
+        kin.CellKinematics(robot, hole, sc.geometry.peg_radius)
+        print(*(len(k.signatures) for k in kernels))
     """
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.split() == ["1", "1"]
+    assert out.stdout.split() == ["1", "1", "1"]
 
 
 def test_bad_limits() -> None:

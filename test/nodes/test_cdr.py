@@ -102,6 +102,20 @@ def test_a_real_joint_state_decodes_like_rclpy():
     assert velocity == effort == ()
 
 
+def test_remembered_names_are_only_reused_for_the_same_bytes():
+    """decode_joints reuses the names it read last at the same offset only when the bytes
+    match: two robots' states alternating, and a caller changing the list it got."""
+    arm = cdr.encode_joints((1, 0), "b", ["a1", "a2"], [1.0, 2.0])
+    other = cdr.encode_joints((1, 0), "b", ["a1", "x2"], [1.0, 2.0])
+    longer = cdr.encode_joints((1, 0), "b", ["a1", "a2", "a3"], [1.0, 2.0, 3.0])
+    for data, names in [(arm, ["a1", "a2"]), (other, ["a1", "x2"]), (arm, ["a1", "a2"]),
+                        (longer, ["a1", "a2", "a3"]), (arm, ["a1", "a2"])]:  # fmt: skip
+        got = cdr.decode_joints(data)[2]
+        assert got == names
+        got.append("changed")
+    assert cdr.decode_joints(arm)[2] == ["a1", "a2"]
+
+
 @pytest.mark.parametrize(
     "decode, kind",
     [
@@ -124,3 +138,54 @@ def test_garbled_bytes_are_an_input_error_naming_the_type(decode, kind):
         decode(whole[: len(whole) - 5])
     with pytest.raises(InputError, match="little-endian CDR"):
         decode(b"\x00\x00" + whole[2:])  # big-endian encapsulation
+
+
+def test_joint_states_are_put_in_the_robots_order_and_checked():
+    """convert.joints_from_cdr: any order of names on the wire, the robot's order out; a
+    missing joint or a short position list is an InputError naming the field."""
+    from fbcc_ros.nodes.convert import efforts_from_cdr, joints_from_cdr
+
+    robot = ("a1", "a2", "a3")
+    same = cdr.encode_joints((2, 500_000_000), "", list(robot), [1.0, 2.0, 3.0], [4.0, 5.0, 6.0])
+    stamp, q, dq = joints_from_cdr(same, robot)
+    assert stamp == 2.5 and q.tolist() == [1.0, 2.0, 3.0] and dq.tolist() == [4.0, 5.0, 6.0]
+    shuffled = cdr.encode_joints((2, 0), "", ["a3", "a1", "a2"], [3.0, 1.0, 2.0], [], [6, 4, 5])
+    _, q, dq = joints_from_cdr(shuffled, robot)
+    assert q.tolist() == [1.0, 2.0, 3.0] and dq is None
+    assert efforts_from_cdr(shuffled, robot)[1].tolist() == [4.0, 5.0, 6.0]
+    with pytest.raises(InputError, match=r"joint_states\.name"):
+        joints_from_cdr(cdr.encode_joints((2, 0), "", ["a1", "a2"], [1.0, 2.0]), robot)
+    with pytest.raises(InputError, match="position"):
+        joints_from_cdr(cdr.encode_joints((2, 0), "", list(robot), [1.0, 2.0]), robot)
+
+
+@pytest.mark.parametrize(
+    "values",
+    [
+        (math.nan, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0),
+        (0.0, 0.0, math.inf, 0.0, 0.0, 0.0, 1.0),
+        (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+        (0.0, 0.0, 0.0, math.nan, 0.0, 0.0, 1.0),
+    ],
+)
+def test_a_pose_that_is_no_pose_is_rejected(values):
+    from fbcc_ros.nodes.convert import pose_from_cdr
+
+    with pytest.raises(InputError, match="a finite position and a non-zero quaternion"):
+        pose_from_cdr(cdr.encode_pose((1, 0), "hole", values))
+
+
+def test_a_pose_round_trips_with_its_quaternion_normalised():
+    import numpy as np
+    import pinocchio as pin
+
+    from fbcc_ros.nodes.convert import pose_from_cdr, pose_to_cdr
+
+    rotation = pin.rpy.rpyToMatrix(0.1, -0.2, 0.3)
+    pose = pin.SE3(rotation, np.array([1e-3, -2e-3, 0.5]))
+    stamp, back = pose_from_cdr(pose_to_cdr(pose, "hole", 12.25))
+    assert stamp == 12.25 and back.isApprox(pose, 1e-12)
+    qx, qy, qz, qw = pin.Quaternion(rotation).coeffs()
+    _, scaled = pose_from_cdr(cdr.encode_pose((1, 0), "hole", (0, 0, 0, 3 * qx, 3 * qy, 3 * qz,
+                                                                3 * qw)))  # fmt: skip
+    assert np.allclose(scaled.rotation, rotation, atol=1e-12)
