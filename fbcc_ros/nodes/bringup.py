@@ -30,7 +30,7 @@ import numpy as np
 from fbcc_ros.bag.writer import check_new_folder
 from fbcc_ros.core import scenario as scenario_io
 from fbcc_ros.core.compensation import acting_point_of
-from fbcc_ros.core.errors import FbccError
+from fbcc_ros.core.errors import FbccError, InputError
 from fbcc_ros.core.simulation import score
 from fbcc_ros.nodes import topics
 from fbcc_ros.nodes.fbcc_record import CELL_TOPICS, default_folder
@@ -65,6 +65,12 @@ def _parser() -> argparse.ArgumentParser:
                         help="bag folder to record into (new or empty; default "
                         "DIR/bags/fbcc_<date>_<time>)")  # fmt: skip
     record.add_argument("--no-record", action="store_true", help="do not record a bag")
+    parser.add_argument(
+        "--wait-for-recorder",
+        action="store_true",
+        help="with --no-record: before the insertion, wait (up to 30 s) until an fbcc_record "
+        "started on its own subscribes every topic the bringup would record",
+    )
     return parser
 
 
@@ -203,9 +209,11 @@ def run_cell(
     processes: bool = False,
     log_dir: Path | None = None,
     bag: Path | None = None,
+    wait_for_recorder: bool = False,
 ) -> dict[str, Any]:
-    """One assembly through the ROS graph, recorded into ``bag`` if given; returns the summary
-    (with CPU per node, and what the bag holds)."""
+    """One assembly through the ROS graph, recorded into ``bag`` if given (or, with
+    ``wait_for_recorder``, by an fbcc_record started on its own, waited for); returns the
+    summary (with CPU per node, and what the bag holds)."""
     from fbcc_ros.nodes.params import find_scenario
 
     path = str(find_scenario(scenario_path))
@@ -214,7 +222,7 @@ def run_cell(
     if bag is not None:
         specs.append(recorder(bag))
     with CellRun(specs, processes=processes, log_dir=log_dir) as run:
-        if bag is not None:
+        if bag is not None or wait_for_recorder:
             wait_recording(run, timeout=30.0)
         start_insertion(run, timeout=30.0 if processes else 10.0)
         obs = run.observer
@@ -257,6 +265,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         from fbcc_ros.nodes.params import find_scenario
 
+        if args.wait_for_recorder and not args.no_record:
+            raise InputError("--wait-for-recorder", True, "with --no-record (a recorder of "
+                             "your own; the bringup's own is always waited for)")  # fmt: skip
         sc = scenario_io.load(find_scenario(args.scenario))
         law = args.law or sc.laws[0]
         print(
@@ -270,9 +281,8 @@ def main(argv: list[str] | None = None) -> int:
         if bag is not None:
             check_new_folder(bag)
             print(f"recording into {bag}", flush=True)
-        summary = run_cell(
-            args.scenario, law, args.draw_geometry, args.seed, args.processes, logs, bag
-        )
+        summary = run_cell(args.scenario, law, args.draw_geometry, args.seed, args.processes,
+                           logs, bag, args.wait_for_recorder)  # fmt: skip
     except FbccError as exc:
         print(f"fbcc_bringup: {exc}", file=sys.stderr)
         return 2

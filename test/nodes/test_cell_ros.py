@@ -146,6 +146,8 @@ def test_bringup_without_recording_and_never_over_a_bag(tmp_path: Path, capfd) -
 def test_bringup_bad_input_exits_two(capsys) -> None:
     assert bringup_main(["no/such/scenario.yaml"]) == 2
     assert "no/such/scenario.yaml" in capsys.readouterr().err
+    assert bringup_main([str(SCENARIO), "--wait-for-recorder"]) == 2  # its own is waited for
+    assert "--wait-for-recorder" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("node", NODES)

@@ -72,8 +72,9 @@ def test_a_killed_recorder_leaves_a_readable_truncated_bag_the_report_says_so(
     tmp_path: Path,
 ) -> None:
     """A whole cell (the bringup, not recording itself) recorded by fbcc_record, which is
-    SIGKILLed two seconds into the insertion: the bag reads up to its last flushed chunk, and
-    fbcc-report draws it and says it is truncated."""
+    SIGKILLed once its checkpoint counts 1000 commands: the bag reads up to its last flushed
+    chunk, and fbcc-report draws it and says it is truncated. The bringup waits for the
+    recorder (under load its discovery took 3.5 s, longer than the insertion)."""
     folder = tmp_path / "killed"
     log_path = tmp_path / "log.txt"
     log = log_path.open("w")
@@ -82,12 +83,14 @@ def test_a_killed_recorder_leaves_a_readable_truncated_bag_the_report_says_so(
         [*run, "fbcc_ros.nodes.fbcc_record", "--ros-args", "-p", f"out:={folder}"],
         cwd=ROOT, stdout=log, stderr=subprocess.STDOUT,
     )  # fmt: skip
-    cell = subprocess.Popen([*run, "fbcc_ros.nodes.bringup", "--no-record"], cwd=ROOT,
-                            stdout=log, stderr=subprocess.STDOUT)  # fmt: skip
+    cell = subprocess.Popen([*run, "fbcc_ros.nodes.bringup", "--no-record",
+                             "--wait-for-recorder"], cwd=ROOT, stdout=log,
+                            stderr=subprocess.STDOUT)  # fmt: skip
     try:
         deadline = time.monotonic() + 90.0
-        while "t =  2.0 s" not in log_path.read_text() and time.monotonic() < deadline:
-            assert cell.poll() is None, log_path.read_text()
+        while _recorded(folder, "/fbcc/command") < 1000:
+            assert cell.poll() in (None, 0), log_path.read_text()
+            assert time.monotonic() < deadline, log_path.read_text()
             time.sleep(0.1)
         assert recorder.poll() is None, log_path.read_text()
         recorder.send_signal(signal.SIGKILL)
@@ -115,3 +118,15 @@ def test_a_killed_recorder_leaves_a_readable_truncated_bag_the_report_says_so(
     # the last phase the bag holds, not the run's (the ramp may end right at the kill)
     phases = [cdr.decode_string(m.data) for m in bag.messages if m.topic == "/fbcc/phase"]
     assert phases[-1] in ("inserting", "inserted") and summary["final_phase"] == phases[-1]
+
+
+def _recorded(folder: Path, topic: str) -> int:
+    """Messages of ``topic`` in the recorder's last checkpoint (metadata.yaml), 0 before one."""
+    import yaml
+
+    try:
+        info = yaml.safe_load((folder / "metadata.yaml").read_text())
+    except FileNotFoundError:
+        return 0
+    counts = info["rosbag2_bagfile_information"]["topics_with_message_count"]
+    return next((t["message_count"] for t in counts if t["topic_metadata"]["name"] == topic), 0)
