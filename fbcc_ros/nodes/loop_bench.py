@@ -7,6 +7,10 @@ answers each wrench with a fixed pose stamped with the sample's stamp, the kinem
 with the last joint positions. So the difference between the two is what our computation and
 our message handling cost. Figures per run:
 
+While it measures, the observer listens only to what the figures need (joint commands, TCP
+commands, the phase), not to the truth, compensated wrenches and features the bringup watches:
+the instrument should load the loop it measures as little as it can.
+
 - cycles delivered: joint commands received / periods of the run (rate × seconds);
 - latency: sensor stamp → TCP command received, p50 and p99 (both on the system clock);
 - CPU per node, as a share of one core (:mod:`fbcc_ros.nodes.harness`).
@@ -106,6 +110,8 @@ def measure(chain: str, seconds: float, processes: bool = False) -> LoopFigures:
             run.spin_until(lambda: len(run.observer.latency) > 100, 10.0, "no TCP command")
         else:
             start_insertion(run, timeout=30.0 if processes else 10.0)
+        run.observer.probe_only()
+        run.spin_for(0.1, lambda _: None)  # the graph learns the observer stopped listening
         run.observer.reset_counts()
         cpu0 = run.cpu()
         run.spin_for(seconds, lambda _: None)

@@ -32,7 +32,9 @@ class Observer(Node):
         self.phase, self.reason = "", ""
         sub = self.create_subscription
         truth = self.truth.append
-        sub(Float64MultiArray, topics.TRUTH, lambda d: truth(decode_array(d)), 100, raw=True)
+        self._watching = [
+            sub(Float64MultiArray, topics.TRUTH, lambda d: truth(decode_array(d)), 100, raw=True)
+        ]
         sub(String, topics.PHASE, self.on_phase, topics.PHASE_QOS)
         # counting needs no decoding: raw (serialised) messages spare ~30 µs each
         for kind, topic, key in (
@@ -41,7 +43,9 @@ class Observer(Node):
             (Float64MultiArray, topics.JOINT_COMMAND, "commands"),
             (String, topics.KINEMATICS_STATUS, "ik_failures"),
         ):
-            sub(kind, topic, self._counter(key), 10, raw=True)
+            handle = sub(kind, topic, self._counter(key), 10, raw=True)
+            if key in ("compensated", "features"):
+                self._watching.append(handle)
         if probe:
             sub(PoseStamped, topics.TCP_COMMAND, self.on_tcp_command, 10, raw=True)
         self.start_client = self.create_client(Trigger, topics.START)
@@ -59,6 +63,15 @@ class Observer(Node):
     def on_tcp_command(self, data: bytes) -> None:
         # sensor stamp -> this TCP command: the whole chain, both ends on the system clock
         self.latency.append(time.time() - stamp_to_seconds(decode_pose(data)[0]))
+
+    def probe_only(self) -> None:
+        """Stops watching what the latency probe does not need (the truth, the compensated
+        wrenches, the features), so the instrument loads the loop it measures less: those
+        are three more deliveries a period, and the mock publishes its truth only while
+        heard. Joint commands (cycles), TCP commands (latency) and the phase stay."""
+        for handle in self._watching:
+            self.destroy_subscription(handle)
+        self._watching.clear()
 
     def reset_counts(self) -> None:
         self.counts = dict.fromkeys(self.counts, 0)

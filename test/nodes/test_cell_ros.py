@@ -190,3 +190,27 @@ def test_a_bad_parameter_stops_a_node_with_a_message(
     run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert run.returncode == 2
     assert message in run.stderr and "Traceback" not in run.stderr, run.stderr
+
+
+def test_the_latency_probe_stops_watching_what_it_does_not_need() -> None:
+    """Observer.probe_only: the truth, compensated wrenches and features are unsubscribed (the
+    mock then stops publishing its truth); the commands, the TCP commands and the phase stay."""
+    import rclpy
+
+    from fbcc_ros.nodes import topics
+    from fbcc_ros.nodes.observer import Observer
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        observer = Observer(probe=True, context=context)
+        before = {s.topic_name for s in observer.subscriptions}
+        observer.probe_only()
+        after = {s.topic_name for s in observer.subscriptions}
+        gone = {"/" + t for t in (topics.TRUTH, topics.COMPENSATED_WRENCH, topics.FEATURES)}
+        assert before - after == gone
+        kept = {"/" + t for t in (topics.JOINT_COMMAND, topics.TCP_COMMAND, topics.PHASE)}
+        assert kept <= after
+        observer.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)
