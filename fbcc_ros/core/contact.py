@@ -114,8 +114,8 @@ def as_rows(values: ArrayLike, field: str, finite_as: str) -> tuple[FloatArray, 
     rows = a.reshape(1, -1) if single else a
     if rows.ndim != 2 or rows.shape[1] != 5:
         raise InputError(field, f"array of shape {a.shape}", "shape (5,) or (N, 5)")
-    if not np.all(np.isfinite(rows)):
-        bad = rows[~np.all(np.isfinite(rows), axis=1)][0]
+    if not np.isfinite(rows).all():
+        bad = rows[~np.isfinite(rows).all(axis=1)][0]
         raise InputError(field, bad.tolist(), f"finite {finite_as}")
     return rows, single
 
@@ -241,7 +241,7 @@ class PegHole:
             peg that touches no wall, gives an exactly zero wrench.
         """
         f2, single = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
-        if np.any(f2[:, 2] < 0):
+        if (f2[:, 2] < 0).any():
             bad_l = float(f2[f2[:, 2] < 0, 2][0])
             raise InputError("features.l", bad_l, "an insertion depth >= 0 in m")
         out = self._batch.response(f2)
