@@ -34,7 +34,7 @@ from fbcc_ros.core.features import pose_from_features
 from fbcc_ros.core.kinematics import CellKinematics, RobotModel, solve_ik
 from fbcc_ros.core.payload import Motion, Payload, payload_wrench
 from fbcc_ros.core.scenario import Scenario
-from fbcc_ros.core.wrench import transfer, wrench_from_response
+from fbcc_ros.core.wrench import transfer_matrix, wrench_from_response
 
 FloatArray = NDArray[np.float64]
 
@@ -101,6 +101,8 @@ class MockCell:
         self.fixture = fixture
         self._acting = pin.SE3(np.eye(3), acting_point_of(self.geometry))
         self.sensor_in_hole = self._acting  # at the acting point, axes as the true hole's
+        # the peg's wrench on the hole at the acting point, read in {S}: T_S_A = T_S_H T_H_A
+        self._to_sensor = transfer_matrix(self.sensor_in_hole.actInv(self._acting))
         self._weight = payload_wrench(fixture, Motion.at_rest(true_hole.rotation))
         self._bias = wrench_from_response(sc.bias)
         self._noise = np.append(sc.noise, 0.0)  # no noise figure for mz
@@ -134,9 +136,7 @@ class MockCell:
         x = self.truth.features(self.q)
         x[2] = max(x[2], 0.0)  # above the hole: no contact
         response = self.geometry.response(x)
-        # the peg's wrench on the hole at the acting point, read in {S}: T_S_A = T_S_H T_H_A
-        sensor_from_acting = self.sensor_in_hole.actInv(self._acting)
-        contact = transfer(wrench_from_response(response), sensor_from_acting)
+        contact = self._to_sensor @ wrench_from_response(response)
         noise = self._noise * self._rng.standard_normal(6)
         raw = contact + self._weight + self._bias + noise
         return CellSample(self.q.copy(), (self.q - q_prev) / dt, raw, x, response)

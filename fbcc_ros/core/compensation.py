@@ -49,7 +49,7 @@ from fbcc_ros.core.payload import (
     payload_wrench,
     subtract,
 )
-from fbcc_ros.core.wrench import response_from_wrench, transfer, virtual_wrench
+from fbcc_ros.core.wrench import response_from_wrench, transfer_matrix, virtual_wrench
 
 FloatArray = NDArray[np.float64]
 
@@ -181,7 +181,7 @@ class Compensator:
             # A sensor under the hole does not move: {S} in {H}, gravity in {S} and so the
             # payload's wrench are constant.
             self._static = (
-                setup.pose,
+                transfer_matrix(setup.pose, self._acting_point),
                 Motion.at_rest(setup.hole_in_base.rotation @ setup.pose.rotation),
             )
             self._static_payload = payload_wrench(setup.payload, self._static[1])
@@ -260,7 +260,7 @@ class Compensator:
         if state is None:
             self.counts["no_joint_state"] += 1
             return None
-        sensor_in_hole, motion = state
+        to_hole, motion = state
         if self.taring:
             self._add_tare(stamp, wrench, motion)
             return None
@@ -271,7 +271,7 @@ class Compensator:
             return None
         if self.setup.placement == "wrist":
             contact = -contact  # the sensor reads the hole's wrench on the peg: the reaction
-        out = transfer(contact, sensor_in_hole, self._acting_point)
+        out = to_hole @ contact  # in {H}, about the acting point (transfer_matrix)
         dt = stamp - self._last_stamp
         out = dead_band(self._lowpass(out, dt), self._band)
         self._last_stamp = stamp
@@ -308,14 +308,15 @@ class Compensator:
         """The bias in use (configured, or measured by the tare)."""
         return self._bias.copy()
 
-    def _sensor_state(self) -> tuple[pin.SE3, Motion] | None:
-        """``T_H_S`` and the sensor's motion in {S}, from the latest joint state if it moves."""
+    def _sensor_state(self) -> tuple[FloatArray, Motion] | None:
+        """The wrench transfer from {S} to {H} at the acting point (``transfer_matrix`` of
+        ``T_H_S``) and the sensor's motion in {S}, from the latest joint state if it moves."""
         if self.setup.placement == "under_hole":
             return self._static
         if self._joints is None or self.robot is None:
             return None
         placement, motion = sensor_motion(self.robot, *self._joints[1:])
-        return self._hole_from_base * placement, motion
+        return transfer_matrix(self._hole_from_base * placement, self._acting_point), motion
 
 
 def sensor_motion(

@@ -16,7 +16,6 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.spatial import cross
 
 FloatArray = NDArray[np.float64]
 
@@ -31,12 +30,22 @@ def transfer(
         source_in_target: ``T_target_source``.
         point: The new moment point, in {target} coordinates [m].
     """
-    w = np.asarray(wrench, dtype=float)
-    rot, origin = source_in_target.rotation, source_in_target.translation
-    force = rot @ w[:3]  # f_T = R_TS f_S
-    # moment about the new point: tau_A = R_TS tau_S + (p_S - p_A) x f_T
-    torque = rot @ w[3:] + cross(origin - np.asarray(point, dtype=float), force)
-    return np.concatenate([force, torque])
+    return transfer_matrix(source_in_target, point) @ np.asarray(wrench, dtype=float)
+
+
+def transfer_matrix(source_in_target: pin.SE3, point: ArrayLike = (0, 0, 0)) -> FloatArray:
+    """The (6, 6) matrix of :func:`transfer`, for a transform used again and again (a sensor
+    that does not move):
+
+    .. math::
+        f_T = R f_S, \\quad \\tau_A = R \\tau_S + (p_S - p_A) \\times f_T, \\quad
+        X = \\begin{pmatrix} R & 0 \\\\ [p_S - p_A]_\\times R & R \\end{pmatrix}
+
+    with ``R, p_S`` the rotation and origin of ``T_target_source``: Pinocchio's dual action
+    matrix of the source frame seen from a frame at ``point`` with the target's axes.
+    """
+    at_point = pin.SE3(np.eye(3), -np.asarray(point, dtype=float)) * source_in_target
+    return at_point.toDualActionMatrix()
 
 
 def response_from_wrench(wrench: ArrayLike) -> FloatArray:
