@@ -6,13 +6,15 @@ Per sample, :class:`Compensator` does, in this order:
    its stamp must be later than the last one, every value finite; a rejected sample is counted,
    never propagated.
 2. **Payload and bias** are removed in the sensor frame {S} (:func:`payload.compensate`), with the
-   sensor's orientation and motion from the kinematics.
+   sensor's orientation and motion from the kinematics (constant for a sensor under the hole:
+   its payload wrench is computed once).
 3. **The sign.** A sensor under the hole (the paper's Section II) carries the hole fixture, so the
    compensated reading *is* the wrench the peg exerts on the hole. A wrist sensor (the paper's
    experiment) carries the peg and reads the wrench the hole exerts on the peg: the reaction, so
    it is negated.
 4. **The acting point.** The wrench is expressed in {H} with the moment moved to the equivalent
-   acting point (:func:`wrench.transfer`, ``tau_A = tau_S + (p_S - p_A) x f``). The boundary
+   acting point (:func:`wrench.transfer_matrix`, ``tau_A = tau_S + (p_S - p_A) x f``; computed
+   once for a sensor that does not move). The boundary
    mapping is derived for the point L + H below the top face (eq. 12-13), so every sensor
    placement is moved *there*; this replaces the paper's re-derivation of L and H for the wrist
    sensor (Remark 2 of II.B, Section V.C) by the exact rigid-body lever.
