@@ -182,11 +182,11 @@ class Compensator:
         else:
             # A sensor under the hole does not move: {S} in {H}, gravity in {S} and so the
             # payload's wrench are constant.
+            at_rest = Motion.at_rest(setup.hole_in_base.rotation @ setup.pose.rotation)
             self._static = (
                 transfer_matrix(setup.pose, self._acting_point),
-                Motion.at_rest(setup.hole_in_base.rotation @ setup.pose.rotation),
+                payload_wrench(setup.payload, at_rest),
             )
-            self._static_payload = payload_wrench(setup.payload, self._static[1])
 
     @property
     def taring(self) -> bool:
@@ -262,12 +262,12 @@ class Compensator:
         if state is None:
             self.counts["no_joint_state"] += 1
             return None
-        to_hole, motion = state
+        to_hole, payload = state
         if self.taring:
-            self._add_tare(stamp, wrench, motion)
+            self._add_tare(stamp, wrench, payload)
             return None
         try:
-            contact = subtract(wrench, self._payload(motion), self._bias)
+            contact = subtract(wrench, payload, self._bias)
         except InputError:
             self.counts["non_finite"] += 1
             return None
@@ -288,9 +288,9 @@ class Compensator:
         self._lowpass = LowPass(lowpass_hz)
         self._band = np.repeat(band, 3)
 
-    def _add_tare(self, stamp: float, wrench: ArrayLike, motion: Motion) -> None:
+    def _add_tare(self, stamp: float, wrench: ArrayLike, payload: FloatArray) -> None:
         try:  # the payload alone: the reading with a zero bias
-            self._tare.append(subtract(wrench, self._payload(motion), np.zeros(6)))
+            self._tare.append(subtract(wrench, payload, np.zeros(6)))
         except InputError:
             self.counts["non_finite"] += 1
             return
@@ -299,26 +299,22 @@ class Compensator:
         if len(self._tare) == self.setup.tare_samples:
             self._bias = np.mean(self._tare, axis=0)  # b = mean(reading - payload wrench)
 
-    def _payload(self, motion: Motion) -> FloatArray:
-        """The payload's wrench on the sensor in {S}: computed once for a static sensor."""
-        if self.setup.placement == "under_hole":
-            return self._static_payload
-        return payload_wrench(self.setup.payload, motion)
-
     @property
     def bias(self) -> FloatArray:
         """The bias in use (configured, or measured by the tare)."""
         return self._bias.copy()
 
-    def _sensor_state(self) -> tuple[FloatArray, Motion] | None:
+    def _sensor_state(self) -> tuple[FloatArray, FloatArray] | None:
         """The wrench transfer from {S} to {H} at the acting point (``transfer_matrix`` of
-        ``T_H_S``) and the sensor's motion in {S}, from the latest joint state if it moves."""
+        ``T_H_S``) and the payload's wrench on the sensor in {S}: from the latest joint state
+        if the sensor moves, computed once if not."""
         if self.setup.placement == "under_hole":
             return self._static
         if self._joints is None or self.robot is None:
             return None
         placement, motion = sensor_motion(self.robot, *self._joints[1:])
-        return transfer_matrix(self._hole_from_base * placement, self._acting_point), motion
+        to_hole = transfer_matrix(self._hole_from_base * placement, self._acting_point)
+        return to_hole, payload_wrench(self.setup.payload, motion)
 
 
 def sensor_motion(
