@@ -36,6 +36,7 @@ from numpy.typing import ArrayLike
 
 from fbcc_ros.core.contact import FloatArray, PegHole, as_rows
 from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.robust import RobustFbcc, RobustParams
 from fbcc_ros.core.segmentation import direct_row
 
 #: Table I of the paper: (M_dp, K_dp, M_do, K_do, M_dl, K_dl) per label; D_d = sqrt(M_d K_d).
@@ -319,17 +320,22 @@ class ComplianceLaw:
         """Per trial, whether the force limit stopped it (bool array)."""
         return self._stopped
 
-    def step(self, response: ArrayLike, depth: ArrayLike, dt: float) -> FloatArray:
-        """One control period: compensated response F_ext (5,) or (N, 5) in {H}, measured depth
-        l [m] (scalar or (N,)), period dt [s]. Returns the command features x_c."""
+    def prepare(self, dt: float) -> None:
+        """Refuse a period too long for the gains, and discretise the filter for it now (the
+        matrix exponentials cost ~1.5 ms: not in the loop)."""
+        self.filter.discretise(dt)
+
+    def step(self, response: ArrayLike, features: ArrayLike, dt: float) -> FloatArray:
+        """One control period: compensated response F_ext (5,) or (N, 5) in {H}, measured
+        features (5,) or (N, 5) (this law uses their depth l [m]), period dt [s]. Returns the
+        command features x_c."""
         w, _ = as_rows(response, "response", "(Fx, Fy, Fz, Mx, My) in N, N·m")
+        x, _ = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
         n = len(self._command)
-        if len(w) != n:
+        if len(w) != n or len(x) != n:
             raise InputError("response", f"{len(w)} rows", f"{n} rows, as reset")
         # contiguous, as _load_step loaded it (a column of the simulator's poses is not)
-        depth_arr = np.ascontiguousarray(depth, dtype=float)
-        if depth_arr.shape != (n,):
-            depth_arr = np.full(n, depth_arr)
+        depth_arr = np.ascontiguousarray(x[:, 2])
         c = self.filter.coefficients(dt)
         x_d, v_d = self.filter.state()
         base, per_depth = self._lever
@@ -431,6 +437,11 @@ class NoFeedback(ComplianceLaw):
     CODE = _NONE
 
 
+#: A control law: Table I's (ComplianceLaw) or the stiffness-robust FBCC.
+Law = ComplianceLaw | RobustFbcc
+#: Gains of either kind: Table I's or the robust configuration.
+Params = ComplianceParams | RobustParams
+
 #: The control laws by the name used in scenarios and parameters.
 LAWS: dict[str, type[ComplianceLaw]] = {
     "fbcc": FbccController,
@@ -442,10 +453,30 @@ LAWS: dict[str, type[ComplianceLaw]] = {
 def make_law(
     name: str,
     nominal: PegHole,
-    params: ComplianceParams | None = None,
+    params: Params | None = None,
     insertion: Insertion | None = None,
-) -> ComplianceLaw:
-    """The law called ``name``: ``fbcc``, ``admittance`` or ``none``."""
+) -> Law:
+    """The law called ``name``: ``fbcc``, ``admittance`` or ``none``.
+
+    With the robust configuration (the default, ``params`` None or :class:`RobustParams`),
+    ``fbcc`` is the stiffness-robust law of :mod:`fbcc_ros.core.robust`; the baselines have no
+    robust form and run with their shipped gains, Table I label 3 (keeping its force limit).
+    """
     if name not in LAWS:
         raise ConfigError("controller.type", name, f"one of {sorted(LAWS)}")
+    if params is None or isinstance(params, RobustParams):
+        robust = params or RobustParams()
+        if name == "fbcc":
+            return RobustFbcc(nominal, robust, insertion)
+        params = ComplianceParams(F_ext_limit=robust.F_ext_limit)
     return LAWS[name](nominal, params, insertion)
+
+
+def params_from_mapping(values: Mapping[str, Any], field: str = "params") -> Params:
+    """``controller.params`` of a scenario: Table I's gains when ``label`` or a Table I gain
+    is given (:meth:`ComplianceParams.from_mapping`), else the robust configuration
+    (:meth:`RobustParams.from_mapping`)."""
+    table_i = set(ComplianceParams.NAMES) - {"F_ext_limit"}
+    if "label" in values or table_i & set(values):
+        return ComplianceParams.from_mapping(values, field)
+    return RobustParams.from_mapping(values, field)

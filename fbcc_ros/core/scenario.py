@@ -38,7 +38,7 @@ import numpy as np
 import yaml
 
 from fbcc_ros.core.contact import FloatArray, PegHole
-from fbcc_ros.core.control import LAWS, ComplianceParams, Insertion
+from fbcc_ros.core.control import LAWS, Insertion, Params, params_from_mapping
 from fbcc_ros.core.errors import ConfigError
 
 #: Plausibility ranges (SI): a value outside smells of mm, degrees or GPa given by mistake.
@@ -72,7 +72,7 @@ class Scenario:
 
     geometry: PegHole
     laws: tuple[str, ...]
-    params: ComplianceParams
+    params: Params
     initial: FloatArray  # the hole's unknown deviation as features (dx, dy, 0, theta_x, theta_y)
     insertion: Insertion
     noise: FloatArray
@@ -197,7 +197,7 @@ def validate(scenario: Any, name: str = "scenario") -> Scenario:
     params_in = c.get("params", {})
     if not isinstance(params_in, Mapping):
         raise ConfigError("controller.params", params_in, "a mapping of Table I gains")
-    params = ComplianceParams.from_mapping(params_in, "controller.params")
+    params = params_from_mapping(params_in, "controller.params")
 
     i = _mapping("initial", s["initial"], ("dx", "dy", "theta_x", "theta_y"),
                  ("dx", "dy", "theta_x", "theta_y"))  # fmt: skip

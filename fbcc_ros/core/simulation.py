@@ -216,7 +216,7 @@ def simulate(
             np.maximum(x_touch[:, 2], 0.0, out=x_touch[:, 2])  # above the hole: no contact
             w = contact.response(x_touch)
             measured = w + sc.bias + sc.noise * rng.standard_normal((n, 5))
-            command = law.step(measured, pose[:, 2], dt)
+            command = law.step(measured, pose, dt)
             pose += alpha * (command - pose)
             buf_x[j], buf_w[j], buf_m[j], buf_c[j] = x, w, measured, command
         t = (k0 + np.arange(kk)) * dt

@@ -23,7 +23,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fbcc_ros.core.control import ComplianceLaw
+from fbcc_ros.core.control import Law
 from fbcc_ros.core.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
@@ -60,10 +60,10 @@ class Supervisor:
         limits: Timeouts and step limits.
     """
 
-    def __init__(self, law: ComplianceLaw, dt: float, limits: SafetyLimits) -> None:
+    def __init__(self, law: Law, dt: float, limits: SafetyLimits) -> None:
         # a rate too low for the gains is refused here, at start-up, not at the first command;
         # and the coefficients (matrix exponentials, ~1.5 ms) are not computed in the loop
-        law.filter.discretise(dt)
+        law.prepare(dt)
         self.law = law
         self.dt = dt
         self.limits = limits
@@ -148,7 +148,7 @@ class Supervisor:
         self._check(now)
         if not self.active or self.features is None or self.command is None:
             return self.command
-        x_c = self.law.step(w, self.features[2], self.dt)
+        x_c = self.law.step(w, self.features, self.dt)
         law_phase = self.law.phase_of(0)
         if law_phase == "force_limit":
             self.phase = "force_limit"

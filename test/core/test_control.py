@@ -119,7 +119,7 @@ def test_direction_separates_offset_from_tilt(pair: PegHole) -> None:
 
 def _run(law: FbccController | AdmittanceController, w: np.ndarray, seconds: float) -> np.ndarray:
     for _ in range(round(seconds / DT)):
-        cmd = law.step(w, 0.0, DT)
+        cmd = law.step(w, np.zeros(5), DT)
     return cmd
 
 
@@ -155,7 +155,7 @@ def test_force_limit_stops_and_holds_the_command(interference: PegHole) -> None:
     law.reset(np.zeros(5))
     before = _run(law, np.array([10.0, 0, 50.0, 0, 0]), 0.5).copy()
     assert law.phase == ["inserting"]
-    held = law.step(np.array([0.0, 0, 250.0, 0, 0]), 0.0, DT)
+    held = law.step(np.array([0.0, 0, 250.0, 0, 0]), np.zeros(5), DT)
     assert law.phase == ["force_limit"]
     later = _run(law, np.array([0.0, 0, 0.0, 0, 0]), 0.5)  # the force is gone: still held
     np.testing.assert_array_equal(held, later)
@@ -163,7 +163,8 @@ def test_force_limit_stops_and_holds_the_command(interference: PegHole) -> None:
 
 
 def test_depth_follows_a_ramp_to_the_final_depth(clearance: PegHole) -> None:
-    law = make_law("fbcc", clearance, insertion=Insertion(depth=4e-3, speed=5e-3))
+    ramp = Insertion(depth=4e-3, speed=5e-3)
+    law = make_law("fbcc", clearance, ComplianceParams(), insertion=ramp)
     law.reset(np.zeros(5))
     half = _run(law, np.zeros(5), 0.4)
     assert half[2] == pytest.approx(2e-3, rel=1e-6)
@@ -177,11 +178,14 @@ def test_a_batch_steps_like_its_rows_one_by_one(clearance: PegHole, name: str) -
     w = rng.normal(size=(50, 3, 5)) * [40, 40, 60, 0.5, 0.5]
     batch = make_law(name, clearance)
     batch.reset(np.zeros((3, 5)))
-    out = np.array([batch.step(w[k], np.full(3, 1e-3 * k), DT) for k in range(50)])
+    x = np.zeros((50, 3, 5))
+    x[:, :, 2] = 1e-3 * np.arange(50)[:, None]
+    x[:, :, [0, 1, 3, 4]] = rng.normal(size=(50, 3, 4)) * [1e-5, 1e-5, 1e-3, 1e-3]
+    out = np.array([batch.step(w[k], x[k], DT) for k in range(50)])
     for i in range(3):
         single = make_law(name, clearance)
         single.reset(np.zeros(5))
-        rows = np.array([single.step(w[k, i], 1e-3 * k, DT) for k in range(50)])
+        rows = np.array([single.step(w[k, i], x[k, i], DT) for k in range(50)])
         np.testing.assert_allclose(out[:, i], rows, rtol=1e-12, atol=1e-18)
 
 
@@ -194,6 +198,6 @@ def test_a_response_batch_must_match_the_reset(clearance: PegHole) -> None:
     law = FbccController(clearance)
     law.reset(np.zeros((3, 5)))
     with pytest.raises(InputError, match="3 rows"):
-        law.step(np.zeros((2, 5)), 0.0, DT)
+        law.step(np.zeros((2, 5)), np.zeros((3, 5)), DT)
     with pytest.raises(InputError, match="finite"):
-        law.step(np.full((3, 5), np.nan), 0.0, DT)
+        law.step(np.full((3, 5), np.nan), np.zeros((3, 5)), DT)

@@ -13,6 +13,7 @@ import pytest
 
 from fbcc_ros.cli.common import paper_scenario
 from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.robust import RobustParams
 from fbcc_ros.core.scenario import DEFAULT_NOISE, load, validate
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -21,7 +22,7 @@ SCENARIOS = sorted((ROOT / "config" / "scenarios").glob("*.yaml"))
 
 def test_defaults_are_documented_values() -> None:
     sc = validate(paper_scenario("clearance"))
-    assert sc.laws == ("fbcc",) and sc.params.K_dp == 1e6  # Table I label 3
+    assert sc.laws == ("fbcc",) and sc.params == RobustParams()  # the robust configuration
     assert sc.rate_hz == 1000 and sc.seed == 0 and sc.lag == 0.005
     assert sc.duration == pytest.approx(0.01 / 0.005 + 2.0)
     np.testing.assert_array_equal(sc.noise, DEFAULT_NOISE)

@@ -14,7 +14,7 @@ from fbcc_ros.cli.common import paper_scenario
 from fbcc_ros.core import scenario
 from fbcc_ros.core.cell import MockCell
 from fbcc_ros.core.compensation import Compensator, SensorSetup
-from fbcc_ros.core.control import make_law
+from fbcc_ros.core.control import ComplianceParams, make_law
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.kinematics import RobotModel, aligned_hole_at
 from fbcc_ros.core.simulation import simulate
@@ -116,7 +116,8 @@ def test_a_command_never_jumps_more_than_the_step_limit() -> None:
 def test_a_rate_too_low_for_the_gains_is_refused_at_construction() -> None:
     """Not at the first command of an insertion, when the cell is already moving."""
     sc = scenario.validate(paper_scenario("interference", "fbcc"))
-    params = sc.params.from_mapping({"M_do": 1e-4})  # tilt mode at 3162 rad/s: needs >= 3.2 kHz
+    # tilt mode at 3162 rad/s: needs >= 3.2 kHz
+    params = ComplianceParams.from_mapping({"M_do": 1e-4})
     law = make_law("fbcc", sc.geometry, params, sc.insertion)
     with pytest.raises(ConfigError) as err:
         Supervisor(law, 1e-3, SafetyLimits())
@@ -131,12 +132,14 @@ def test_compiled_kernels_are_loaded_before_the_loop() -> None:
     so no other test has loaded them already."""
     code = """if True:
         from fbcc_ros.cli.common import paper_scenario
-        from fbcc_ros.core import scenario, contact, control, kinematics as kin
+        from fbcc_ros.core import scenario, contact, control, robust, kinematics as kin
         from fbcc_ros.core.cell import MockCell
         sc = scenario.validate(paper_scenario("interference", "fbcc"))
-        kernels = (control._law_rows, contact._response_kernel, kin._dls_update)
+        kernels = (control._law_rows, robust._robust_rows, contact._response_kernel,
+                   kin._dls_update)
         assert not any(k.signatures for k in kernels)
         control.make_law("fbcc", sc.geometry, sc.params, sc.insertion)
+        control.make_law("admittance", sc.geometry, sc.params, sc.insertion)
         robot = kin.RobotModel.from_name("iiwa14")
         hole = kin.aligned_hole_at(robot.peg_in_base(robot.home))
         MockCell(sc, robot, hole)
@@ -145,7 +148,7 @@ def test_compiled_kernels_are_loaded_before_the_loop() -> None:
     """
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.split() == ["1", "1", "1"]
+    assert out.stdout.split() == ["1", "1", "1", "1"]
 
 
 def test_bad_limits() -> None:

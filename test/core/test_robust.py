@@ -1,0 +1,193 @@
+"""The stiffness-robust FBCC law: contact identification against the model's own
+finite-difference stiffness, the oscillation guard on synthetic signals, the loop margins
+against the closed loop's poles, and the law in closed loop across stiffnesses."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fbcc_ros.core import identification as ident
+from fbcc_ros.core.contact import PegHole
+from fbcc_ros.core.control import ComplianceParams, make_law, params_from_mapping
+from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.guard import GuardParams, OscillationGuard
+from fbcc_ros.core.robust import RobustFbcc, RobustParams, loop_margins, loop_transfer
+from fbcc_ros.core.scenario import validate
+from fbcc_ros.core.segmentation import apply_direction
+from fbcc_ros.core.simulation import simulate
+
+DT = 1e-3
+
+
+def _pair(fit: str, k: float) -> PegHole:
+    hole = 5.05e-3 if fit == "clearance" else 5.03e-3
+    return PegHole(hole, 5.04e-3, 0.01, 0.005, 0.3, k)
+
+
+def _row_slope(ph: PegHole, x: np.ndarray, f: int, h: float) -> float:
+    """d (A F)_f / d x_f by central differences of the contact model."""
+    a, b = x.copy(), x.copy()
+    a[f] += h
+    b[f] -= h
+    ua = apply_direction(ph.response(a)[None], np.array([x[2]]), ph)[0, f]
+    ub = apply_direction(ph.response(b)[None], np.array([x[2]]), ph)[0, f]
+    return float((ua - ub) / (2 * h))
+
+
+@pytest.mark.parametrize(("fit", "k"), [("clearance", 1e9), ("interference", 3e8),
+                                        ("clearance", 3e10)])  # fmt: skip
+def test_identification_finds_the_models_own_stiffness(fit: str, k: float) -> None:
+    """Hold a contact, move the peg by small random steps in all four rows and the depth (as
+    the controller and its dither do), and the RLS slope of each row matches the contact
+    model's finite-difference stiffness at that point (within 10 %)."""
+    ph = _pair(fit, k)
+    x0 = np.array([15e-6, -12e-6, 6e-3, 0.002, -0.003])
+    truth = [_row_slope(ph, x0, f, h) for f, h in zip(ident.ROWS, (1e-8, 1e-8, 1e-6, 1e-6),
+                                                       strict=True)]  # fmt: skip
+    rng = np.random.default_rng(3)
+    steps = np.array([2e-8, 2e-8, 2e-6, 2e-6]) * 50 / math.sqrt(k / 1e9 * 50)
+    state = np.zeros((1, 4, ident.N_STATE))
+    ident.reset_rows(state, np.full(4, 1e-9))
+    x_prev = x0.copy()
+    u_prev = apply_direction(ph.response(x0)[None], np.array([x0[2]]), ph)[0]
+    for _ in range(400):
+        x = x0.copy()
+        x[list(ident.ROWS)] += rng.normal(size=4) * steps
+        x[2] += rng.normal() * 1e-7
+        u = apply_direction(ph.response(x)[None], np.array([x[2]]), ph)[0]
+        d_rows = (x - x_prev)[list(ident.ROWS)]
+        d_u = (u - u_prev)[list(ident.ROWS)]
+        ident.identify_rows(state[0], d_rows, x[2] - x_prev[2], d_u, True, 0.99,
+                            np.zeros(4), 0.0, np.ones(4))  # fmt: skip
+        x_prev, u_prev = x, u
+    est = ident.estimate_of(state[0], 0.3, True)
+    np.testing.assert_allclose(est.raw_stiffness, truth, rtol=0.1)
+
+
+def test_the_floor_is_below_the_models_stiffness_in_contact() -> None:
+    """The floor (the highest gain the law uses) must not exceed the true slope: over random
+    contacts of both fits at 1 GPa, every offset and tilt slope is at least the floor."""
+    rng = np.random.default_rng(1)
+    floor = np.zeros(4)
+    checked = 0
+    for fit in ("clearance", "interference"):
+        ph = _pair(fit, 1e9)
+        for l in (1e-3, 3e-3, 6e-3, 10e-3):
+            ident.floor_row(l, 1e9, floor)
+            for _ in range(25):
+                x = np.array([*rng.uniform(-1e-4, 1e-4, 2), l, *rng.uniform(-0.035, 0.035, 2)])
+                w = ph.response(x)
+                if abs(w[0]) < 1.0 or abs(w[4]) < 1e-3:
+                    continue
+                kx, kt = _row_slope(ph, x, 0, 1e-8), _row_slope(ph, x, 4, 1e-6)
+                if kx > 0 and kt > 0:  # a slope <= 0 is an edge of contact, not a stiffness
+                    assert kx >= floor[0] and kt >= floor[3], (fit, x, kx, kt, floor)
+                    checked += 1
+    assert checked > 50
+
+
+def test_friction_estimate_bounds_mu_from_above_for_a_one_sided_contact() -> None:
+    ph = _pair("clearance", 1e9).replace(friction=0.22)
+    w = ph.response(np.array([3e-5, 0.0, 5e-3, 0.0, 0.0]))  # pressed on one side, no tilt
+    mu = 0.5
+    for _ in range(100):
+        mu = ident.friction_update(mu, w[2], math.hypot(w[0], w[1]), 0.25, DT)
+    assert 0.22 <= mu <= 0.22 * 1.2  # an upper bound: the pressure spreads over an arc
+
+
+def test_guard_fires_on_a_growing_sinusoid_and_not_on_a_decaying_one() -> None:
+    t = np.arange(0, 2.0, DT)
+    growing = 0.5 * np.exp(1.0 * t) * np.sin(2 * math.pi * 8 * t)  # x1.13 per period
+    decaying = 20.0 * np.exp(-1.0 * t) * np.sin(2 * math.pi * 8 * t)
+    steady = 5.0 * np.sin(2 * math.pi * 8 * t)
+    params = GuardParams(growth=1.03, cycles=3, min_amplitude=1.0)
+    fired = []
+    for signal in (growing, decaying, steady):
+        g = OscillationGuard(params)
+        trips = [k for k, v in enumerate(signal) if g.update(v)]
+        fired.append(trips)
+    assert fired[0], "a growing oscillation must trip the guard"
+    # it trips within three half-waves of the amplitude passing min_amplitude
+    first_above = np.flatnonzero(np.abs(growing) > 1.0)[0]
+    assert fired[0][0] - first_above <= 3 * 0.5 / 8 / DT + 1
+    assert fired[1] == [] and fired[2] == []
+
+
+def test_guard_ignores_noise() -> None:
+    rng = np.random.default_rng(0)
+    g = OscillationGuard(GuardParams(min_amplitude=1.0))
+    assert not any(g.update(v) for v in rng.normal(0, 0.2, 20000))
+
+
+def test_margins_agree_with_the_closed_loop_poles() -> None:
+    """The gain margin from the frequency sweep is where the closed loop's poles (roots of
+    1 + rho L(z) = 0, found from its polynomial) leave the unit circle."""
+    p = RobustParams()
+    m = loop_margins(p, DT, lag=0.005)
+    assert m.phase_margin > math.radians(45) and m.gain_margin > 3.0
+    assert m.crossover == pytest.approx(p.bandwidth, rel=0.2)
+
+    def largest_pole(rho: float) -> float:
+        # L(z) = num(z)/den(z) sampled at 7 points fixes a rational function of degree <= 5;
+        # fit it by evaluating 1 + rho L on a circle and counting zeros (argument principle)
+        zs = 1.0001 * np.exp(1j * np.linspace(0, 2 * np.pi, 4001))
+        f = np.array([1 + rho * loop_transfer(p, DT, 0.005, complex(z)) for z in zs])
+        winding = np.sum(np.diff(np.unwrap(np.angle(f)))) / (2 * np.pi)
+        poles_outside_open_loop = 0  # L's poles are inside or on the circle (the integrator)
+        return round(winding) + poles_outside_open_loop
+
+    # zeros of 1 + rho L outside the unit circle = poles of L inside it (4 + integrator) -
+    # winding; stable when the winding equals the open-loop pole count inside
+    inside = largest_pole(1e-6)
+    assert largest_pole(0.8 * m.gain_margin) == inside
+    assert largest_pole(1.25 * m.gain_margin) != inside
+
+
+def test_robust_is_the_default_and_labels_stay_available() -> None:
+    assert isinstance(params_from_mapping({}), RobustParams)
+    assert isinstance(params_from_mapping({"label": 3}), ComplianceParams)
+    assert isinstance(params_from_mapping({"K_dp": 2e6}), ComplianceParams)
+    assert params_from_mapping({"bandwidth": 10.0}) == RobustParams(bandwidth=10.0)
+    with pytest.raises(ConfigError, match=r"params\.bandwith"):
+        params_from_mapping({"bandwith": 10.0})
+    with pytest.raises(ConfigError, match=r"params\.fz_back_off"):
+        params_from_mapping({"fz_back_off": 400.0})  # above the force limit
+    assert isinstance(make_law("fbcc", _pair("clearance", 1e9)), RobustFbcc)
+    assert not isinstance(make_law("admittance", _pair("clearance", 1e9)), RobustFbcc)
+
+
+def test_a_batch_steps_like_its_rows_one_by_one() -> None:
+    rng = np.random.default_rng(0)
+    w = rng.normal(size=(60, 3, 5)) * [4, 4, 6, 0.05, 0.05]
+    x = np.zeros((60, 3, 5))
+    x[:, :, 2] = 1e-4 * np.arange(60)[:, None]
+    x[:, :, [0, 1, 3, 4]] = rng.normal(size=(60, 3, 4)) * [1e-6, 1e-6, 1e-4, 1e-4]
+    ph = _pair("clearance", 1e9)
+    batch = RobustFbcc(ph)
+    batch.reset(np.zeros((3, 5)))
+    out = np.array([batch.step(w[k], x[k], DT) for k in range(60)])
+    for i in range(3):
+        single = RobustFbcc(ph)
+        single.reset(np.zeros(5))
+        rows = np.array([single.step(w[k, i], x[k, i], DT) for k in range(60)])
+        np.testing.assert_allclose(out[:, i], rows, rtol=1e-12, atol=1e-18)
+
+
+@pytest.mark.parametrize(("fit", "k"), [("clearance", 1e8), ("clearance", 1e9),
+                                        ("interference", 1e8), ("interference", 3e8)])  # fmt: skip
+def test_one_configuration_assembles_across_stiffness(fit: str, k: float) -> None:
+    """The default configuration, unchanged, at contact stiffnesses where Table I label 3 is
+    stable and where it is not (interference at 0.3 GPa: label 3 needs k_c < 1e7 N/m)."""
+    ph = _pair(fit, k)
+    sc = validate({
+        "geometry": {f: getattr(ph, f) for f in ("hole_radius", "peg_radius", "hole_depth",
+                                                 "base_thickness", "friction", "stiffness")},
+        "initial": {"dx": 5e-5, "dy": -3e-5, "theta_x": 0.01, "theta_y": -0.02},
+    })  # fmt: skip
+    outcome, _ = simulate(sc, "fbcc", record=False)
+    s = outcome.summary(0)
+    assert s["success"] and not s["force_limited"], s
+    assert s["residual_force"] <= 0.5 and s["tilt_overshoot"] < math.radians(0.2), s
