@@ -11,17 +11,21 @@ so it needs, while in contact, the local slope of each direction row ``u_j = (A(
 where ``x`` are the robot's measured features (with a compliant holder, the series stiffness of
 holder and contact: what the command actually meets).
 
-**Model and estimator.** Per row, a recursive least-squares fit with exponential forgetting of
-the increments from one sample to the next:
+**Model and estimator.** Per plane (XOZ: dx and theta_y; YOZ: dy and theta_x), a recursive
+least-squares fit with exponential forgetting of the increments from one sample to the next:
 
 .. math::
-    \\Delta u_j = k_j \\Delta x_j + b_j \\Delta l + c_j,
+    \\begin{bmatrix}\\Delta u_d \\\\ \\Delta u_\\theta\\end{bmatrix}
+    = J \\begin{bmatrix}\\Delta d \\\\ \\Delta\\theta\\end{bmatrix} + b\\,\\Delta l + c,
 
-``b_j`` the row's sensitivity to the depth (the insertion itself presses the peg harder into the
-wall), ``c_j`` the slow drift. Increments remove the unknown hole deviation (the operating point)
-and the sensor bias; ``b_j`` keeps the depth motion from being read as stiffness. Excitation comes
-from the controller's own adjustments and a small dither at a frequency of its own per row
-(:mod:`fbcc_ros.core.robust`), so ``Δx_j`` is not collinear with ``Δl``.
+``J`` the plane's local 2×2 stiffness (its diagonal the rows' own stiffness k_j, its
+off-diagonal the coupling the direction matrix leaves: in a two-point contact an offset moves the
+tilt row and a tilt the offset row), ``b`` the rows' sensitivity to the depth (the insertion
+itself presses the peg harder into the wall), ``c`` the slow drift. Both rows of a plane share the
+regressors, hence one covariance. Increments remove the unknown hole deviation (the operating
+point) and the sensor bias; ``b`` keeps the depth motion from being read as stiffness. Excitation
+comes from the controller's own adjustments and a small dither at a frequency of its own per row
+(:mod:`fbcc_ros.core.robust`), so the regressors are not collinear.
 
 **Gating and bounds.** The fit is updated only in contact (Fz or a row above its noise), so the
 free-space samples of a clearance fit do not pull the stiffness to zero; the covariance is
@@ -57,6 +61,8 @@ from fbcc_ros.core.contact import FloatArray
 
 #: The controlled rows of A(l) F: features dx, dy, theta_x, theta_y (indices into 5-vectors).
 ROWS = (0, 1, 3, 4)
+#: The planes as (offset row, tilt row), indices into ROWS: XOZ (dx, theta_y), YOZ (dy, theta_x).
+PLANES = ((0, 3), (1, 2))
 #: Scale of the regressors (typical increments), so the RLS works on numbers near 1:
 #: offsets in um, tilts in 0.1 mrad, depth in um.
 ROW_SCALE = np.array([1e-6, 1e-6, 1e-4, 1e-4])
@@ -72,8 +78,12 @@ FLOOR_MIN_DEPTH = 1e-4
 #: Relative upward drift of the friction estimate per second (lets an early low value recover).
 FRICTION_DRIFT = 0.05
 
-#: Columns of one row's identifier state: theta (3), P (3x3), then the used stiffness.
-N_STATE = 3 + 9 + 1
+#: Regressors of a plane's fit: its offset and tilt increments, the depth's, and 1.
+N_REG = 4
+#: Columns of one plane's identifier state: theta (2 outputs x N_REG, row-major), P
+#: (N_REG x N_REG), the used stiffness of its two rows.
+_THETA, _P, _USED = 0, 2 * N_REG, 2 * N_REG + N_REG * N_REG
+N_STATE = _USED + 2
 
 
 @dataclasses.dataclass(frozen=True)
@@ -83,8 +93,10 @@ class ContactEstimate:
     Attributes:
         stiffness: Local stiffness of the rows (dx, dy, theta_x, theta_y) as the law uses it:
             [N/m, N/m, N/rad, N/rad] in units of ``A(l) F`` (bounded, released slowly).
-        raw_stiffness: The least-squares slope before the floor and release (may be <= 0 when
-            the data say nothing).
+        raw_stiffness: The least-squares diagonal of J before the floor and release (may be
+            <= 0 when the data say nothing).
+        coupling: Off-diagonal of J per row: d u_dx/d theta_y, d u_dy/d theta_x [N/rad],
+            d u_theta_x/d dy, d u_theta_y/d dx [N/m].
         depth_gain: d u_j / d l of each row [N/m].
         friction: Estimated friction coefficient (an upper bound; see the module doc).
         in_contact: Whether the last sample was counted as contact.
@@ -92,6 +104,7 @@ class ContactEstimate:
 
     stiffness: FloatArray
     raw_stiffness: FloatArray
+    coupling: FloatArray
     depth_gain: FloatArray
     friction: float
     in_contact: bool
@@ -101,19 +114,22 @@ class ContactEstimate:
         return {
             "stiffness": self.stiffness.tolist(),
             "raw_stiffness": self.raw_stiffness.tolist(),
+            "coupling": self.coupling.tolist(),
             "depth_gain": self.depth_gain.tolist(),
             "friction": self.friction,
             "in_contact": self.in_contact,
         }
 
 
-def reset_rows(state: FloatArray, floor: FloatArray) -> None:
-    """Initial identifier state for every trial: state (N, 4, N_STATE); ``floor`` (4,) the
-    stiffness the law starts from."""
+def reset_planes(state: FloatArray, floor: FloatArray) -> None:
+    """Initial identifier state of every trial: state (N, 2, N_STATE); ``floor`` (4,) the
+    stiffness of the rows (dx, dy, theta_x, theta_y) the law starts from."""
     state[:] = 0.0
-    for r in range(3):
-        state[:, :, 3 + 4 * r] = P0  # the diagonal of P (3x3 stored row-major at 3..11)
-    state[:, :, 12] = floor
+    for r in range(N_REG):
+        state[:, :, _P + r * (N_REG + 1)] = P0
+    for plane, rows in enumerate(PLANES):
+        state[:, plane, _USED] = floor[rows[0]]
+        state[:, plane, _USED + 1] = floor[rows[1]]
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
@@ -125,35 +141,37 @@ def floor_row(depth: float, stiffness_min: float, out: FloatArray) -> None:
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
-def rls_row(s: FloatArray, dx: float, dl: float, du: float, forget: float) -> None:
-    """One RLS update of one row's state ``s`` (N_STATE,) with the scaled increments:
-    ``du = theta . (dx, dl, 1)``; theta = s[0:3], P = s[3:12] (row-major 3x3)."""
-    phi0, phi1, phi2 = dx, dl, 1.0
-    # P phi
-    pp0 = s[3] * phi0 + s[4] * phi1 + s[5] * phi2
-    pp1 = s[6] * phi0 + s[7] * phi1 + s[8] * phi2
-    pp2 = s[9] * phi0 + s[10] * phi1 + s[11] * phi2
-    den = forget + phi0 * pp0 + phi1 * pp1 + phi2 * pp2
-    g0, g1, g2 = pp0 / den, pp1 / den, pp2 / den
-    err = du - (s[0] * phi0 + s[1] * phi1 + s[2] * phi2)
-    s[0] += g0 * err
-    s[1] += g1 * err
-    s[2] += g2 * err
-    # P = (P - g (P phi)^T) / forget, kept symmetric; its trace bounded (no wind-up)
+def rls_plane(s: FloatArray, phi: FloatArray, y0: float, y1: float, forget: float) -> None:
+    """One RLS update of one plane's state ``s`` (N_STATE,): both outputs y = theta phi share
+    the regressors phi (N_REG,) and the covariance P."""
+    pp = np.zeros(N_REG)  # P phi
+    for a in range(N_REG):
+        acc = 0.0
+        for b in range(N_REG):
+            acc += s[_P + a * N_REG + b] * phi[b]
+        pp[a] = acc
+    den = forget
+    for a in range(N_REG):
+        den += phi[a] * pp[a]
+    for out, y in ((0, y0), (1, y1)):
+        err = y
+        for a in range(N_REG):
+            err -= s[_THETA + out * N_REG + a] * phi[a]
+        for a in range(N_REG):
+            s[_THETA + out * N_REG + a] += pp[a] / den * err
+    # P = (P - (P phi)(P phi)^T / den) / forget; its trace bounded (no wind-up)
     trace = 0.0
-    gs = (g0, g1, g2)
-    ps = (pp0, pp1, pp2)
-    for a in range(3):
-        for b in range(3):
-            s[3 + 3 * a + b] = (s[3 + 3 * a + b] - gs[a] * ps[b]) / forget
-        trace += s[3 + 4 * a]
+    for a in range(N_REG):
+        for b in range(N_REG):
+            s[_P + a * N_REG + b] = (s[_P + a * N_REG + b] - pp[a] * pp[b] / den) / forget
+        trace += s[_P + a * (N_REG + 1)]
     if trace > P_TRACE_MAX:
-        for i in range(3, 12):
+        for i in range(_P, _P + N_REG * N_REG):
             s[i] *= P_TRACE_MAX / trace
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
-def identify_rows(
+def identify_planes(
     s: FloatArray,
     d_rows: FloatArray,
     d_depth: float,
@@ -164,30 +182,69 @@ def identify_rows(
     release: float,
     backoff: FloatArray,
 ) -> None:
-    """Advance the four rows' identifiers of one trial (s: (4, N_STATE)) by one sample.
+    """Advance both planes' identifiers of one trial (s: (2, N_STATE)) by one sample.
 
     d_rows: increments of the measured features dx, dy, theta_x, theta_y; d_depth of l;
-    d_u: of the direction rows. ``release`` is exp(-dt / T_release); ``backoff`` (4,) >= 1
-    multiplies the used stiffness (the oscillation guard's back-off). The used stiffness
-    (s[:, 12]) is max(raw slope, floor, previous * release) * backoff.
+    d_u: of the direction rows (same order). ``release`` is exp(-dt / T_release); ``backoff``
+    (4,) >= 1 multiplies the used stiffness (the oscillation guard's back-off). The used
+    stiffness of a row is max(max(raw diagonal, floor) * backoff, previous * release).
     """
-    for j in range(4):
+    phi = np.zeros(N_REG)
+    for plane in range(2):
+        r_d, r_t = PLANES[plane]
         if in_contact:
-            rls_row(s[j], d_rows[j] / ROW_SCALE[j], d_depth / DEPTH_SCALE, d_u[j], forget)
-        raw = s[j, 0] / ROW_SCALE[j]
-        held = s[j, 12] * release
-        s[j, 12] = max(max(raw, floor[j]) * backoff[j], held)
+            phi[0] = d_rows[r_d] / ROW_SCALE[r_d]
+            phi[1] = d_rows[r_t] / ROW_SCALE[r_t]
+            phi[2] = d_depth / DEPTH_SCALE
+            phi[3] = 1.0
+            rls_plane(s[plane], phi, d_u[r_d], d_u[r_t], forget)
+        for k, r in ((0, r_d), (1, r_t)):
+            raw = s[plane, _THETA + k * N_REG + k] / ROW_SCALE[r]
+            held = s[plane, _USED + k] * release
+            s[plane, _USED + k] = max(max(raw, floor[r]) * backoff[r], held)
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def used_matrix(s: FloatArray, plane: int, max_coupling: float, out: FloatArray) -> None:
+    """The plane's Jacobian J the law inverts, [[N/m, N/rad], [N/m, N/rad]]: the used diagonal
+    and the fitted off-diagonal, the latter shrunk so that |J01 J10| <= max_coupling J00 J11
+    (the determinant stays >= (1 - max_coupling) J00 J11 > 0). out: (4,) as J00, J01, J10,
+    J11; s the plane's state (N_STATE,)."""
+    r_d, r_t = PLANES[plane]
+    out[0], out[3] = s[_USED], s[_USED + 1]
+    out[1] = s[_THETA + 1] / ROW_SCALE[r_t]  # d u_d / d theta
+    out[2] = s[_THETA + N_REG] / ROW_SCALE[r_d]  # d u_theta / d d
+    cross = abs(out[1] * out[2])
+    limit = max_coupling * out[0] * out[3]
+    if cross > limit:
+        shrink = math.sqrt(limit / cross)
+        out[1] *= shrink
+        out[2] *= shrink
 
 
 def estimate_of(state: FloatArray, friction: float, in_contact: bool) -> ContactEstimate:
-    """The :class:`ContactEstimate` of one trial's identifier state (4, N_STATE)."""
-    return ContactEstimate(
-        stiffness=state[:, 12].copy(),
-        raw_stiffness=state[:, 0] / ROW_SCALE,
-        depth_gain=state[:, 1] / DEPTH_SCALE,
-        friction=float(friction),
-        in_contact=bool(in_contact),
-    )
+    """The :class:`ContactEstimate` of one trial's identifier state (2, N_STATE)."""
+    used, raw, coupling, depth = (np.zeros(4) for _ in range(4))
+    for plane, (r_d, r_t) in enumerate(PLANES):
+        s = state[plane]
+        used[r_d], used[r_t] = s[_USED], s[_USED + 1]
+        raw[r_d] = s[_THETA] / ROW_SCALE[r_d]
+        raw[r_t] = s[_THETA + N_REG + 1] / ROW_SCALE[r_t]
+        coupling[r_d] = s[_THETA + 1] / ROW_SCALE[r_t]
+        coupling[r_t] = s[_THETA + N_REG] / ROW_SCALE[r_d]
+        depth[r_d] = s[_THETA + 2] / DEPTH_SCALE
+        depth[r_t] = s[_THETA + N_REG + 2] / DEPTH_SCALE
+    return ContactEstimate(used, raw, coupling, depth, float(friction), bool(in_contact))
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def plane_depth_gain(s: FloatArray, row: int) -> float:
+    """d u_row / d l [N/m] from a trial's identifier state s (2, N_STATE)."""
+    for plane in range(2):
+        for k in range(2):
+            if PLANES[plane][k] == row:
+                return s[plane, _THETA + k * N_REG + 2] / DEPTH_SCALE
+    return 0.0
 
 
 @numba.njit(cache=True)  # type: ignore[misc]

@@ -3,18 +3,23 @@
 Table I's gains fix the loop's crossover to ``k_c / K`` for a contact stiffness k_c, so one
 label is stable only below one stiffness (``docs/reproduction.md``). This law keeps FBCC's
 structure — the direction rows ``u = A(l) F`` of eq. 28, a second-order filter (eq. 27), an
-integrator (Algorithm 1) — and schedules the integrator's gain by the identified stiffness of
-each row (:mod:`fbcc_ros.core.identification`), so that every lateral loop crosses over at the
-same ``bandwidth`` whatever the part:
+integrator (Algorithm 1) — and schedules the integrators' gains by the identified stiffness of
+each plane (:mod:`fbcc_ros.core.identification`), so that every lateral loop crosses over at the
+same ``bandwidth`` whatever the part. Per plane (offset d, tilt θ):
 
 .. math::
     \\bar u = H_f(s)\\,u,\\qquad
-    \\dot x_{c,j} = -\\frac{\\omega_c}{\\hat k_j}\\,\\mathrm{dz}(\\bar u_j),\\qquad
+    \\begin{bmatrix}\\dot x_{c,d} \\\\ \\dot x_{c,\\theta}\\end{bmatrix}
+    = -\\omega_c\\,\\hat J^{-1}\\,\\mathrm{dz}(\\bar u),\\qquad
     H_f(s) = \\frac{\\omega_f^2}{s^2 + 2\\zeta\\omega_f s + \\omega_f^2},
 
-with ``dz`` a dead zone of ``dead_band`` noise deviations (so the integrators do not random-walk
-on sensor noise, which the paper's ``x_d_limit`` is for). With ``k̂_j = k_j`` the loop
-``L(s) = ω_c H_f(s) G_robot(s) / s`` has the margins :func:`loop_margins` computes; an error
+with Ĵ the plane's identified 2×2 stiffness (diagonal bounded and released as the
+identification's doc says; the coupling inverted up to ``coupling_limit``): where A(l) leaves
+the rows coupled (a two-point contact, where an offset step moves the tilt row as much as a tilt
+step does) Ĵ⁻¹ finishes the decoupling; with no coupling it is ``ω_c / k̂_j`` per row; and
+``dz`` a dead zone of ``dead_band`` noise deviations (so the integrators do not random-walk on
+sensor noise, which the paper's ``x_d_limit`` is for). With ``Ĵ = J`` each decoupled loop is
+``L(s) = ω_c H_f(s) G_robot(s) / s``, with the margins :func:`loop_margins` computes; an error
 ``k_j / k̂_j = ρ`` scales the loop gain by ρ, so the gain margin is the largest stiffness
 underestimate the loop survives. The identification errs stiff (floor, slow release) and the
 oscillation guard (:mod:`fbcc_ros.core.guard`) backs a row's gain off by ``guard_backoff`` when its
@@ -96,11 +101,13 @@ class RobustParams:
         guard_amplitude: See above (dimensionless).
         guard_backoff: Factor by which a tripped row's gain falls (> 1).
         guard_hold: How long the depth holds after a trip [s].
+        coupling_limit: How much of a plane's identified coupling the law inverts:
+            |J01 J10| <= coupling_limit J00 J11 (0: the rows alone, as FBCC's A(l)).
         F_ext_limit: Force limit [N] on |(Fx, Fy, Fz)|: the insertion stops for good above it
             (Algorithm 1's loop condition), as in :class:`fbcc_ros.core.control.ComplianceParams`.
     """
 
-    bandwidth: float = 20.0
+    bandwidth: float = 30.0
     filter_frequency: float = 150.0
     filter_damping: float = 0.7
     dead_band: float = 3.0
@@ -112,7 +119,7 @@ class RobustParams:
     dither_effort: float = 2.0
     dither_max_offset: float = 2e-6
     dither_max_tilt: float = 2e-4
-    offset_force: float = 1.0
+    offset_force: float = 3.0
     tilt_effort: float = 3.0
     depth_bandwidth: float = 20.0
     depth_lead: float = 0.01
@@ -122,6 +129,10 @@ class RobustParams:
     guard_amplitude: float = 2.0
     guard_backoff: float = 4.0
     guard_hold: float = 0.2
+    coupling_limit: float = 0.0
+    plane_gate: bool = True
+    offset_resolution: float = 1e-6
+    tilt_resolution: float = 2e-4
     F_ext_limit: float = 300.0
 
     POSITIVE: ClassVar[tuple[str, ...]] = (
@@ -129,6 +140,7 @@ class RobustParams:
         "stiffness_min", "release", "dither_force", "dither_effort", "dither_max_offset",
         "dither_max_tilt", "offset_force", "tilt_effort", "depth_bandwidth", "depth_lead",
         "fz_back_off", "guard_amplitude", "guard_backoff", "guard_hold", "F_ext_limit",
+        "offset_resolution", "tilt_resolution",
     )  # fmt: skip
 
     def __post_init__(self) -> None:
@@ -145,6 +157,9 @@ class RobustParams:
             and all(isinstance(v, (int, float)) and math.isfinite(v) and v > 0 for v in noise)
         ):
             raise ConfigError("sensor_noise", noise, "five standard deviations > 0 [N, N·m]")
+        c = self.coupling_limit
+        if isinstance(c, bool) or not isinstance(c, (int, float)) or not 0.0 <= c < 1.0:
+            raise ConfigError("coupling_limit", c, "a number in [0, 1): 0 ignores the coupling")
         if self.guard_backoff <= 1.0:
             raise ConfigError("guard_backoff", self.guard_backoff, "a factor > 1")
         guard_mod.GuardParams(self.guard_growth, self.guard_cycles, 1.0)  # checks those two
@@ -222,8 +237,9 @@ _N_MAIN = 43
  _P_DITH_E, _P_DITH_MAX_X, _P_DITH_MAX_T, _P_U_X, _P_U_T, _P_WL, _P_LEAD, _P_FZ_BACK,
  _P_G_GROWTH, _P_G_CYCLES, _P_G_AMP, _P_G_BACKOFF, _P_G_HOLD, _P_FLIM2, _P_SPEED, _P_DEPTH,
  _P_NOISE_FZ, _P_BASE, _P_PER_DEPTH, _P_HOLE_DEPTH, _P_HOLE_RADIUS, _P_DT, _P_F0, _P_F1, _P_F2,
- _P_F3, _P_SU_X, _P_SU_Y, _P_SU_TX, _P_SU_TY, _P_MU0) = range(40)  # fmt: skip
-_N_PARAMS = 40
+ _P_F3, _P_SU_X, _P_SU_Y, _P_SU_TX, _P_SU_TY, _P_MU0, _P_COUPLING, _P_GATE, _P_NFLOOR_X,
+ _P_NFLOOR_Y, _P_NFLOOR_TX, _P_NFLOOR_TY) = range(46)  # fmt: skip
+_N_PARAMS = 46
 
 
 class RobustFbcc:
@@ -265,10 +281,10 @@ class RobustFbcc:
         self._main[:, _C_LCMD] = rows[:, 2]
         self._main[:, _C_MU] = self.nominal.friction
         self._main[:, _C_BACKOFF : _C_BACKOFF + 4] = 1.0
-        self._ident = np.zeros((n, 4, ident.N_STATE))
+        self._ident = np.zeros((n, 2, ident.N_STATE))
         floor = np.zeros(4)
         ident.floor_row(0.0, self.params.stiffness_min, floor)
-        ident.reset_rows(self._ident, floor)
+        ident.reset_planes(self._ident, floor)
         self._guard = np.zeros((n, 4, guard_mod.N_STATE))
         self._command = rows.copy()
 
@@ -358,6 +374,11 @@ class RobustFbcc:
         prm[_P_F0 : _P_F3 + 1] = 2 * math.pi * np.array(DITHER_FRACTIONS) / dt  # [rad/s]
         prm[_P_SU_X : _P_SU_TY + 1] = su
         prm[_P_MU0] = nom.friction
+        prm[_P_COUPLING] = p.coupling_limit
+        prm[_P_GATE] = 1.0 if p.plane_gate else 0.0
+        # noise floor of each row: the filtered noise over the resolution [N/m, N/rad]
+        resolution = np.array([p.offset_resolution] * 2 + [p.tilt_resolution] * 2)
+        prm[_P_NFLOOR_X : _P_NFLOOR_TY + 1] = filtered / resolution
         self._prm[dt] = prm
         return prm
 
@@ -380,6 +401,9 @@ def _robust_rows(
     d_u = np.zeros(4)
     floor = np.zeros(4)
     backoff = np.ones(4)
+    excess = np.zeros(4)
+    jac = np.zeros(4)
+    k_row = np.zeros(4)
     for i in range(w.shape[0]):
         m = main[i]
         # Algorithm 1 runs while |F_ext| <= F_ext_limit; past it the insertion stops for good.
@@ -401,9 +425,11 @@ def _robust_rows(
             d_u[j] = u[f] - m[_C_PREV_U + f]
             backoff[j] = m[_C_BACKOFF + j]
         ident.floor_row(depth, prm[_P_KMIN], floor)
+        for j in range(4):  # the noise floor: no gain that noise alone could drive further
+            floor[j] = max(floor[j], prm[_P_NFLOOR_X + j])
         identify = contact and m[_C_HAVE_PREV] > 0.0
-        ident.identify_rows(idn[i], d_rows, x[i, 2] - m[_C_PREV_X + 2], d_u, identify,
-                            prm[_P_FORGET], floor, prm[_P_RELEASE], backoff)  # fmt: skip
+        ident.identify_planes(idn[i], d_rows, x[i, 2] - m[_C_PREV_X + 2], d_u, identify,
+                              prm[_P_FORGET], floor, prm[_P_RELEASE], backoff)  # fmt: skip
         for f in range(5):
             m[_C_PREV_X + f] = x[i, f]
             m[_C_PREV_U + f] = u[f]
@@ -433,15 +459,31 @@ def _robust_rows(
             m[_C_ELAPSED] += dt
         if not running:
             continue  # the command is held
-        # scheduled integrators: x_c = x_rfr - ∫ (ω_c / k̂) dz(ū) dt
+        # scheduled integrators, per plane: x_c = x_rfr - ∫ ω_c Ĵ⁻¹ dz(ū) dt
         for j in range(4):
             f = ident.ROWS[j]
-            band = prm[_P_DB_X + j]
-            excess = max(abs(xf[f]) - band, 0.0)
+            excess[j] = max(abs(xf[f]) - prm[_P_DB_X + j], 0.0)
             if xf[f] < 0.0:
-                excess = -excess
-            k_used = idn[i, j, 12]
-            m[_C_INT + f] += prm[_P_WC] / k_used * excess * dt
+                excess[j] = -excess[j]
+        for plane in range(2):
+            r_d, r_t = ident.PLANES[plane]
+            ident.used_matrix(idn[i, plane], plane, prm[_P_COUPLING], jac)
+            k_row[r_d], k_row[r_t] = jac[0], jac[3]
+            if prm[_P_GATE] > 0.0:
+                # plane gate: a plane whose rows are both inside the dead band is not in
+                # contact (nothing to sense, Remark 2) and holds; one that is integrates both
+                # rows whole, so a weak row is not eaten by its dead band
+                if excess[r_d] == 0.0 and excess[r_t] == 0.0:
+                    continue
+                excess[r_d], excess[r_t] = xf[ident.ROWS[r_d]], xf[ident.ROWS[r_t]]
+            det = jac[0] * jac[3] - jac[1] * jac[2]
+            v_d = (jac[3] * excess[r_d] - jac[1] * excess[r_t]) / det
+            v_t = (jac[0] * excess[r_t] - jac[2] * excess[r_d]) / det
+            m[_C_INT + ident.ROWS[r_d]] += prm[_P_WC] * v_d * dt
+            m[_C_INT + ident.ROWS[r_t]] += prm[_P_WC] * v_t * dt
+        for j in range(4):
+            f = ident.ROWS[j]
+            k_used = k_row[j]
             amp = 0.0
             if contact:  # dither: a force-sized motion, capped
                 cap = prm[_P_DITH_MAX_X] if j < 2 else prm[_P_DITH_MAX_T]
@@ -454,7 +496,7 @@ def _robust_rows(
         rate = v
         if contact:
             scale = prm[_P_U_X] if j_max < 2 else prm[_P_U_T]
-            slope = abs(idn[i, j_max, 1]) / ident.DEPTH_SCALE / scale  # ∂e/∂l [1/m]
+            slope = abs(ident.plane_depth_gain(idn[i], j_max)) / scale  # ∂e/∂l [1/m]
             rate = prm[_P_WL] * (1.0 - effort) / max(slope, 1e-9)
             rate = min(max(rate, -v), v)
         if m[_C_T] < m[_C_HOLD]:
@@ -481,7 +523,7 @@ def _load_step() -> None:
     compiled on a machine's first run), not on the first period. No rows: nothing is stepped."""
     rows = np.zeros((0, 5))
     _robust_rows(rows, rows, np.zeros(_N_PARAMS), np.zeros((6, 5)), np.zeros((0, _N_MAIN)),
-                 np.zeros((0, 4, ident.N_STATE)), np.zeros((0, 4, guard_mod.N_STATE)),
+                 np.zeros((0, 2, ident.N_STATE)), np.zeros((0, 4, guard_mod.N_STATE)),
                  rows)  # fmt: skip
 
 
