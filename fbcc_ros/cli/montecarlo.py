@@ -1,13 +1,21 @@
 """fbcc-montecarlo: the success rate of each law over many random assemblies.
 
-    fbcc-montecarlo SCENARIO.yaml --trials 1000 --workers 2 --out DIR
+    fbcc-montecarlo SCENARIO.yaml --trials 1000 --out DIR
+    fbcc-montecarlo SCENARIO.yaml --trials 10000 --stiffness-gpa 0.1 100 --friction 0.1 0.5
 
 The scenario gives the nominal geometry, gains, sensor, robot and timing (its ``initial`` is
 replaced by the random deviations). Each trial draws the deviations (default ±0.1 mm, ±2° in both
-planes) and the true radii (the spreads of Table II); see :mod:`fbcc_ros.core.montecarlo`. Every
-law runs the same trials. DIR receives ``trials.csv`` (one row per trial and law),
-``summary.json`` (success rate with its 95 % Wilson interval, percentiles of the metrics) and
-``histograms.png``.
+planes), the true radii (the spreads of Table II) and, when asked, the material: k log-uniform
+(``--stiffness-gpa``) and mu uniform (``--friction``); see :mod:`fbcc_ros.core.montecarlo`. A part
+that no controller could push in (quasi-static push-in force above 2/3 of the force limit) is
+drawn again and counted, unless ``--all-parts``. Every law runs the same trials, on all local
+cores by default or on a Dask cluster (``--scheduler``), with identical results for one seed.
+
+DIR receives ``trials.csv`` (one row per trial and law, with its material and the noise seed of
+its batch), ``summary.json`` (success rate with its 95 % Wilson interval, percentiles of the
+metrics, the goals of the robustness study with the measured figures, every failure with what
+reproduces it), ``histograms.png`` and, when k is drawn, ``stiffness.png`` (success and peak Fz
+against k).
 """
 
 from __future__ import annotations
@@ -16,6 +24,7 @@ import argparse
 import csv
 import json
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -33,6 +42,7 @@ from fbcc_ros.core.contact import FEATURE_NAMES
 from fbcc_ros.core.control import LAWS
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.montecarlo import (
+    BATCH,
     Trials,
     draw_trials,
     run_montecarlo,
@@ -88,18 +98,80 @@ def summarise(outcome: Outcome) -> dict[str, Any]:
     return out
 
 
+#: The goals of the robustness study (issue "one FBCC configuration from soft plastic to
+#: steel"): the measured figure beside each target.
+GOAL_SUCCESS = 0.999
+GOAL_RESIDUAL = 0.5  # [N]
+GOAL_TIME = 3.0  # [s] from the start, 10 mm at 5 mm/s
+GOAL_PEAK_FZ = 15.0  # [N] clearance: median peak; interference: median peak above push-in
+GOAL_OVERSHOOT = 0.0035  # [rad] a tilt past zero beyond the success tolerance counts
+
+
+def goals(outcome: Outcome, trials: Trials) -> dict[str, Any]:
+    """The study's goals, each with the measured figure and whether it holds."""
+    push_in = np.array([g.push_in_force() for g in trials.geometries])
+    ok = outcome.success
+    t = outcome.insertion_time[ok]
+    rate = float(ok.mean())
+    excess = outcome.peak_fz - push_in
+    interference = push_in > 0
+    rows: dict[str, Any] = {
+        "success": {"measured": rate, "target": f">= {GOAL_SUCCESS}",
+                    "met": rate >= GOAL_SUCCESS},
+        "tilt_overshoot_deg": {
+            "measured": math.degrees(float(outcome.tilt_overshoot.max())),
+            "target": f"no trial past {math.degrees(GOAL_OVERSHOOT):.2f} deg",
+            "met": bool((outcome.tilt_overshoot <= GOAL_OVERSHOOT).all())},
+        "residual_force_N": {
+            "measured": float(outcome.residual_force[ok].max()) if ok.any() else None,
+            "target": f"<= {GOAL_RESIDUAL} in every successful trial",
+            "met": bool((outcome.residual_force[ok] <= GOAL_RESIDUAL).all())},
+        "insertion_time_s": {
+            "measured": float(t.max()) if len(t) else None,
+            "over_target": int((t > GOAL_TIME).sum()),
+            "target": f"<= {GOAL_TIME} in every successful trial",
+            "met": bool((t <= GOAL_TIME).all())},
+    }  # fmt: skip
+    for label, mask, value in (("peak_fz_clearance_median_N", ~interference, outcome.peak_fz),
+                               ("peak_fz_over_push_in_median_N", interference, excess)):
+        if mask.any():
+            med = float(np.median(value[mask]))
+            rows[label] = {"measured": med, "target": f"<= {GOAL_PEAK_FZ}",
+                           "met": med <= GOAL_PEAK_FZ, "trials": int(mask.sum())}  # fmt: skip
+    return rows
+
+
+def failures(outcome: Outcome, trials: Trials, seed: int, noise_seed: int, batch: int,
+             limit: int = 200) -> list[dict[str, Any]]:
+    """Every failed trial (up to ``limit``) with what reproduces it: the study's seed and the
+    trial's index, its part and deviation, and the noise seed of its batch."""
+    rows = []
+    for i in np.flatnonzero(~outcome.success)[:limit]:
+        g, d = trials.geometries[i], trials.initial[i]
+        rows.append({
+            "trial": int(i), "seed": seed, "noise_seed": noise_seed + int(i) // batch,
+            "why": "force limit" if outcome.force_limited[i] else "not assembled at the end",
+            "stiffness": g.stiffness, "friction": g.friction, "hole_radius": g.hole_radius,
+            "peg_radius": g.peg_radius, "deviation": [float(d[j]) for j in (0, 1, 3, 4)],
+            "final_features": [float(v) for v in outcome.final_features[i]],
+            "peak_fz": float(outcome.peak_fz[i]),
+        })  # fmt: skip
+    return rows
+
+
 def write_trials(trials: Trials, results: dict[str, Outcome], path: Path) -> None:
     with path.open("w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["law", "trial", "dx0", "dy0", "theta_x0", "theta_y0", "hole_radius",
-                    "peg_radius", "success", "insertion_time", "peak_fz", "residual_force",
-                    "residual_moment", "tilt_overshoot", "force_limited",
+                    "peg_radius", "stiffness", "friction", "success", "insertion_time", "peak_fz",
+                    "residual_force", "residual_moment", "tilt_overshoot", "force_limited",
                     *(f"final_{n}" for n in FEATURE_NAMES)])  # fmt: skip
         for law, o in results.items():
             for i in range(len(trials)):
                 d, g = trials.initial[i], trials.geometries[i]
                 w.writerow([law, i, *(f"{v:.6g}" for v in (d[0], d[1], d[3], d[4])),
-                            f"{g.hole_radius:.7g}", f"{g.peg_radius:.7g}", int(o.success[i]),
+                            f"{g.hole_radius:.7g}", f"{g.peg_radius:.7g}",
+                            f"{g.stiffness:.4g}", f"{g.friction:.4g}", int(o.success[i]),
                             f"{o.insertion_time[i]:.4g}", f"{o.peak_fz[i]:.4g}",
                             f"{o.residual_force[i]:.4g}", f"{o.residual_moment[i]:.4g}",
                             f"{o.tilt_overshoot[i]:.4g}", int(o.force_limited[i]),
@@ -122,17 +194,57 @@ def draw(results: dict[str, Outcome], path: Path) -> None:
     plt.close(fig)
 
 
+def draw_stiffness(trials: Trials, results: dict[str, Outcome], path: Path) -> None:
+    """Success rate per decade-third of k, and every trial's peak Fz against k."""
+    k = np.array([g.stiffness for g in trials.geometries])
+    edges = np.geomspace(k.min(), k.max() * (1 + 1e-9), 10)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4))
+    for law, o in results.items():
+        idx = np.clip(np.digitize(k, edges) - 1, 0, len(edges) - 2)
+        rate = [o.success[idx == b].mean() if (idx == b).any() else np.nan
+                for b in range(len(edges) - 1)]  # fmt: skip
+        a1.semilogx(np.sqrt(edges[:-1] * edges[1:]), np.array(rate) * 100, "o-", label=law)
+        a2.loglog(k[o.success], o.peak_fz[o.success], ".", ms=2, label=f"{law}: assembled")
+        a2.loglog(k[~o.success], o.peak_fz[~o.success], "x", ms=4, label=f"{law}: failed")
+    a1.set(xlabel="contact stiffness k [Pa]", ylabel="success [%]", ylim=(0, 101))
+    a2.set(xlabel="contact stiffness k [Pa]", ylabel="peak Fz [N]")
+    for ax in (a1, a2):
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _range(parser: argparse.ArgumentParser, flag: str, value: list[float] | None,
+           low: float, high: float, unit: str) -> tuple[float, float] | None:  # fmt: skip
+    if value is None:
+        return None
+    lo, hi = value
+    if not (low <= lo <= hi <= high):
+        parser.error(f"{flag} {lo:g} {hi:g} is not allowed: expected LOW HIGH with "
+                     f"{low:g} <= LOW <= HIGH <= {high:g} {unit}")  # fmt: skip
+    return lo, hi
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="fbcc-montecarlo", description=__doc__.split("\n\n")[0])
     parser.add_argument("scenario", type=Path, metavar="SCENARIO.yaml")
     parser.add_argument("--out", required=True, help="output folder (created if missing)")
     parser.add_argument("--trials", type=int, default=1000, help="number of trials (1000)")
-    parser.add_argument("--workers", type=int, default=2, help="processes (2)")
+    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                        help="local processes (default: every core)")  # fmt: skip
     parser.add_argument("--laws", nargs="+", choices=sorted(LAWS), default=None,
                         help="laws to run (default: the scenario's controller.type)")  # fmt: skip
     parser.add_argument("--seed", type=int, default=0, help="seed of the random trials (0)")
     parser.add_argument("--max-offset-mm", type=float, default=0.1, help="± initial dx, dy [mm]")
     parser.add_argument("--max-tilt-deg", type=float, default=2.0, help="± initial tilts [deg]")
+    parser.add_argument("--stiffness-gpa", type=float, nargs=2, metavar=("LOW", "HIGH"),
+                        help="draw eq. 8's k log-uniform in [LOW, HIGH] GPa per trial")
+    parser.add_argument("--friction", type=float, nargs=2, metavar=("LOW", "HIGH"),
+                        help="draw mu uniform in [LOW, HIGH] per trial")
+    parser.add_argument("--all-parts", action="store_true",
+                        help="keep parts whose push-in force exceeds 2/3 of the force limit")
     args = parser.parse_args(argv)
     for flag, value in (("--trials", args.trials), ("--workers", args.workers)):
         if value < 1:
@@ -146,21 +258,38 @@ def main(argv: list[str] | None = None) -> int:
         print(f"fbcc-montecarlo: {exc}", file=sys.stderr)
         return 2
     laws = args.laws or list(sc.laws)
-    trials = draw_trials(sc.geometry, args.trials, args.seed, args.max_offset_mm * 1e-3,
-                         math.radians(args.max_tilt_deg))  # fmt: skip
+    stiffness_gpa = _range(parser, "--stiffness-gpa", args.stiffness_gpa, 1e-3, 1e3, "GPa")
+    friction = _range(parser, "--friction", args.friction, 1e-3, 0.99, "")
+    if args.seed < 0:
+        parser.error(f"--seed={args.seed} is not allowed: expected an integer >= 0")
+    feasible = None if args.all_parts else 2.0 / 3.0 * sc.params.F_ext_limit
+    trials = draw_trials(
+        sc.geometry, args.trials, args.seed, args.max_offset_mm * 1e-3,
+        math.radians(args.max_tilt_deg),
+        stiffness=None if stiffness_gpa is None else (stiffness_gpa[0] * 1e9,
+                                                      stiffness_gpa[1] * 1e9),
+        friction=friction, feasible_force=feasible,
+    )  # fmt: skip
     start = time.perf_counter()
     results = run_montecarlo(sc, laws, trials, workers=args.workers,
                              progress=ProgressBar(f"{sc.name}: {', '.join(laws)}"))  # fmt: skip
     elapsed = time.perf_counter() - start
-    summary = {law: summarise(o) for law, o in results.items()}
+    summary: dict[str, Any] = {}
+    for law, o in results.items():
+        summary[law] = summarise(o)
+        summary[law]["goals"] = goals(o, trials)
+        summary[law]["failures"] = failures(o, trials, args.seed, sc.seed, BATCH)
     summary["_run"] = {
         "scenario": str(args.scenario), "trials": args.trials, "seed": args.seed,
         "workers": args.workers, "seconds": elapsed, "max_offset_mm": args.max_offset_mm,
-        "max_tilt_deg": args.max_tilt_deg,
+        "max_tilt_deg": args.max_tilt_deg, "stiffness_gpa": stiffness_gpa,
+        "friction": friction, "feasible_force": feasible, "parts_redrawn": trials.redrawn,
     }  # fmt: skip
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     write_trials(trials, results, out / "trials.csv")
     draw(results, out / "histograms.png")
+    if stiffness_gpa is not None:
+        draw_stiffness(trials, results, out / "stiffness.png")
     for law in laws:
         s = summary[law]
         lo, hi = s["success_ci95"]
@@ -169,6 +298,15 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{law:<11} success {s['successes']}/{s['trials']} = {s['success_rate']:.1%} "
               f"(95 % CI {lo:.1%}-{hi:.1%}); peak Fz median {pf['median']:.1f} N, "
               f"max {pf['max']:.1f} N; residual force median {rf['median']:.2f} N")  # fmt: skip
+        for name, g in s["goals"].items():
+            print(f"    {'met    ' if g['met'] else 'NOT met'} {name}: {g['measured']} "
+                  f"(target {g['target']})")  # fmt: skip
+        for f in s["failures"][:10]:
+            print(f"    failed trial {f['trial']} (seed {f['seed']}, noise seed "
+                  f"{f['noise_seed']}): {f['why']}; k {f['stiffness']:.3g} Pa, "
+                  f"mu {f['friction']:.2f}")  # fmt: skip
+    if trials.redrawn:
+        print(f"{trials.redrawn} part(s) drawn again: push-in force above {feasible:.0f} N")
     print(f"{args.trials} trials x {len(laws)} law(s) in {elapsed:.1f} s on {args.workers} "
           f"worker(s); wrote {out}/")  # fmt: skip
     return 0

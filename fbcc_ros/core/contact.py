@@ -224,6 +224,15 @@ class PegHole:
         # acting point at z_A = peg_length - l; mean contact height -l_wall/2
         return mu_r - self.peg_length, 1.0
 
+    def push_in_force(self, depth: float | None = None) -> float:
+        """The quasi-static axial force of a centred, aligned peg at ``depth`` (default L) [N]:
+        eq. 8 with the uniform penetration delta = r - R all round, eq. 11:
+        ``Fz = mu 2 pi delta l k`` (0 for a clearance fit). No controller inserts below it."""
+        l = self.hole_depth if depth is None else min(depth, self.hole_depth)
+        delta = max(self.peg_radius - self.hole_radius, 0.0)
+        # eq. (11) with p = k delta / R over the band 2 pi R l
+        return self.friction * 2.0 * math.pi * delta * l * self.stiffness
+
     def response(self, features: ArrayLike) -> FloatArray:
         """Responses (Fx, Fy, Fz, Mx, My) for features (dx, dy, l, theta_x, theta_y).
 

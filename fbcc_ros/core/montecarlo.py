@@ -1,15 +1,22 @@
-"""Robustness at scale: many assemblies with random deviations and manufacturing tolerances.
+"""Robustness at scale: many assemblies with random deviations, tolerances and materials.
 
 Each trial draws
 
 * the hole's unknown deviation: dx, dy uniform in ±max_offset, theta_x, theta_y uniform in
   ±max_tilt (defaults ±0.1 mm, ±2°, as the paper's experiment and Section IV.C);
 * the true radii: each of R and r moves uniformly within ± half the range of the diameters
-  measured in one group of Table II, the group drawn per trial (:func:`mapping_study.perturbed`
-  with friction and stiffness kept nominal).
+  measured in one group of Table II, the group drawn per trial (:func:`mapping_study.perturbed`);
+* optionally the material: eq. 8's k log-uniform in ``stiffness`` = (low, high) [Pa] and mu
+  uniform in ``friction`` = (low, high); by default both stay nominal.
+
+A part whose quasi-static push-in force (:meth:`PegHole.push_in_force` at L) exceeds
+``feasible_force`` cannot be inserted by any controller within the force limit; when
+``feasible_force`` is given such a part is drawn again (its deviations kept) and counted in
+:attr:`Trials.redrawn`, so that the study measures the controller, not the impossible.
 
 Every law sees the same trials (same seed). The trials are split in batches that run in lockstep
-(:func:`simulation.simulate`) on a pool of processes.
+(:func:`simulation.simulate`) on a pool of processes; batch j's sensor noise is seeded with
+``scenario.seed + j``, so a trial's outcome depends only on the seeds, not on the workers.
 """
 
 from __future__ import annotations
@@ -29,14 +36,18 @@ from fbcc_ros.core.simulation import Outcome, simulate
 
 DEFAULT_MAX_OFFSET = 1e-4  # [m]
 DEFAULT_MAX_TILT = math.radians(2.0)  # [rad]
+#: Trials per lockstep batch (and per task of the pool).
+BATCH = 128
 
 
 @dataclasses.dataclass(frozen=True)
 class Trials:
-    """The random part of N trials: deviations (N, 5) and true geometries."""
+    """The random part of N trials: deviations (N, 5), true geometries, and how many parts were
+    drawn again because they could not be inserted (see the module doc)."""
 
     initial: FloatArray
     geometries: tuple[PegHole, ...]
+    redrawn: int = 0
 
     def __len__(self) -> int:
         return len(self.initial)
@@ -51,18 +62,48 @@ def draw_trials(
     seed: int,
     max_offset: float = DEFAULT_MAX_OFFSET,
     max_tilt: float = DEFAULT_MAX_TILT,
+    *,
+    stiffness: tuple[float, float] | None = None,
+    friction: tuple[float, float] | None = None,
+    feasible_force: float | None = None,
 ) -> Trials:
-    """N random trials around the nominal pair (see the module doc)."""
+    """N random trials around the nominal pair (see the module doc).
+
+    Args:
+        stiffness: (low, high) of a log-uniform k [Pa]; None keeps the nominal k.
+        friction: (low, high) of a uniform mu; None keeps the nominal mu.
+        feasible_force: Largest quasi-static push-in force at L [N] of a part kept; None keeps
+            every part.
+    """
     if not (isinstance(n, int) and n >= 1):
         raise ConfigError("trials", n, "an integer >= 1")
+    for name, bounds, low in (("stiffness", stiffness, 0.0), ("friction", friction, 0.0)):
+        if bounds is not None and not (low < bounds[0] <= bounds[1]):
+            raise ConfigError(name, list(bounds), f"(low, high) with {low:g} < low <= high")
     rng = np.random.default_rng(seed)
     initial = np.zeros((n, 5))
     initial[:, :2] = rng.uniform(-max_offset, max_offset, (n, 2))
     initial[:, 3:] = rng.uniform(-max_tilt, max_tilt, (n, 2))
-    geometries = tuple(
-        perturbed(nominal, rng, friction_spread=0.0, stiffness_octaves=0.0) for _ in range(n)
-    )
-    return Trials(initial, geometries)
+    geometries: list[PegHole] = []
+    redrawn = 0
+    while len(geometries) < n:
+        g = perturbed(nominal, rng, friction_spread=0.0, stiffness_octaves=0.0)
+        if stiffness is not None:
+            k = 10.0 ** rng.uniform(math.log10(stiffness[0]), math.log10(stiffness[1]))
+            g = g.replace(stiffness=float(k))
+        if friction is not None:
+            g = g.replace(friction=float(rng.uniform(*friction)))
+        if feasible_force is not None and g.push_in_force() > feasible_force:
+            redrawn += 1
+            if redrawn > 100 * n:
+                raise ConfigError(
+                    "feasible_force", feasible_force,
+                    "a force most drawn parts can be pushed in with (100 draws per trial "
+                    "were all too tight: is the fit an interference too stiff to insert?)",
+                )  # fmt: skip
+            continue
+        geometries.append(g)
+    return Trials(initial, tuple(geometries), redrawn)
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
@@ -94,7 +135,7 @@ def run_montecarlo(
     trials: Trials,
     *,
     workers: int = 2,
-    batch: int = 128,
+    batch: int = BATCH,
     progress: Callable[[int, int], None] | None = None,
 ) -> dict[str, Outcome]:
     """Run every law on the same trials; returns the outcomes per law, in trial order.

@@ -119,9 +119,9 @@ class RobustParams:
     dither_effort: float = 2.0
     dither_max_offset: float = 2e-6
     dither_max_tilt: float = 2e-4
-    offset_force: float = 3.0
+    offset_force: float = 8.0
     tilt_effort: float = 3.0
-    depth_bandwidth: float = 20.0
+    depth_bandwidth: float = 50.0
     depth_lead: float = 0.01
     fz_back_off: float = 200.0
     guard_growth: float = 1.2

@@ -71,3 +71,44 @@ def test_montecarlo_rejects_bad_counts(tmp_path: Path) -> None:
         montecarlo.main([str(SCENARIOS / "fig9_clearance.yaml"), "--out", str(tmp_path),
                          "--trials", "0"])  # fmt: skip
     assert exc.value.code == 2
+
+
+def test_montecarlo_draws_materials_lists_failures_and_judges_the_goals(tmp_path: Path) -> None:
+    """With --stiffness-gpa and --friction every trial carries its own k and mu (in trials.csv),
+    parts that cannot be pushed in are drawn again and counted, every failure is listed with
+    what reproduces it, and the goals carry the measured figures."""
+    args = [str(SCENARIOS / "robust_interference.yaml"), "--out", str(tmp_path),
+            "--trials", "8", "--workers", "1", "--laws", "fbcc", "admittance",
+            "--stiffness-gpa", "0.1", "1", "--friction", "0.1", "0.5", "--seed", "4"]  # fmt: skip
+    assert montecarlo.main(args) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    with (tmp_path / "trials.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    k = [float(r["stiffness"]) for r in rows]
+    mu = [float(r["friction"]) for r in rows]
+    assert min(k) >= 1e8 and max(k) <= 1e9 and len(set(k)) == 8  # one draw per trial
+    assert min(mu) >= 0.1 and max(mu) <= 0.5
+    run = summary["_run"]
+    assert run["feasible_force"] == pytest.approx(200.0) and run["parts_redrawn"] >= 0
+    for law in ("fbcc", "admittance"):
+        s = summary[law]
+        assert len(s["failures"]) == s["trials"] - s["successes"]
+        for fail in s["failures"]:
+            row = rows[[r["law"] for r in rows].index(law) + fail["trial"]]
+            assert float(row["stiffness"]) == pytest.approx(fail["stiffness"], rel=1e-3)
+            assert fail["seed"] == 4 and fail["why"]
+        assert s["goals"]["success"]["measured"] == s["success_rate"]
+        assert s["goals"]["success"]["met"] == (s["success_rate"] >= 0.999)
+    assert (tmp_path / "stiffness.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize(
+    "flags", [["--stiffness-gpa", "10", "1"], ["--friction", "0", "0.5"], ["--seed", "-1"]]
+)
+def test_montecarlo_refuses_bad_ranges(tmp_path: Path, flags: list[str],
+                                       capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
+    with pytest.raises(SystemExit) as exc:
+        montecarlo.main([str(SCENARIOS / "robust_clearance.yaml"), "--out", str(tmp_path),
+                         "--trials", "2", *flags])  # fmt: skip
+    assert exc.value.code == 2
+    assert flags[0] in capsys.readouterr().err

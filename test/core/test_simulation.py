@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from fbcc_ros.cli.common import paper_scenario
+from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.montecarlo import draw_trials, run_montecarlo, wilson_interval
 from fbcc_ros.core.scenario import validate
 from fbcc_ros.core.simulation import _Metrics, run, simulate
@@ -124,6 +125,37 @@ def test_trials_spread_within_their_bounds() -> None:
     assert np.all(t.initial[:, 2] == 0)
     radii = np.array([g.peg_radius for g in t.geometries])
     assert 0 < radii.std() < 20e-6
+
+
+def test_drawn_materials_and_the_feasibility_cut() -> None:
+    """k log-uniform, mu uniform within their bounds; a part that cannot be pushed in within
+    the feasible force is drawn again (its deviation kept) and counted."""
+    sc = validate(paper_scenario("interference"))
+    t = draw_trials(sc.geometry, 300, seed=1, stiffness=(1e8, 1e10), friction=(0.1, 0.5),
+                    feasible_force=200.0)  # fmt: skip
+    k = np.array([g.stiffness for g in t.geometries])
+    mu = np.array([g.friction for g in t.geometries])
+    assert k.min() >= 1e8 and k.max() <= 1e10 and mu.min() >= 0.1 and mu.max() <= 0.5
+    assert max(g.push_in_force() for g in t.geometries) <= 200.0
+    assert t.redrawn > 0  # at 1-10 GPa many interference parts need more than 200 N
+    # the log-uniform draw: about as many parts below 1 GPa as above (those that fit)
+    free = draw_trials(sc.geometry, 400, seed=1, stiffness=(1e8, 1e10))
+    share = np.mean([g.stiffness < 1e9 for g in free.geometries])
+    assert 0.4 < share < 0.6 and free.redrawn == 0
+    same = draw_trials(sc.geometry, 300, seed=1, stiffness=(1e8, 1e10), friction=(0.1, 0.5),
+                       feasible_force=200.0)  # fmt: skip
+    np.testing.assert_array_equal(same.initial, t.initial)
+    with pytest.raises(ConfigError, match="stiffness"):
+        draw_trials(sc.geometry, 3, seed=1, stiffness=(1e9, 1e8))
+
+
+def test_push_in_force_is_the_models_centred_axial_force() -> None:
+    sc = validate(paper_scenario("interference"))
+    g = sc.geometry
+    for depth in (2e-3, 10e-3):
+        fz = g.response(np.array([0.0, 0.0, depth, 0.0, 0.0]))[2]
+        assert g.push_in_force(depth) == pytest.approx(fz, rel=1e-9)
+    assert validate(paper_scenario("clearance")).geometry.push_in_force() == 0.0
 
 
 def test_wilson_interval() -> None:
