@@ -61,24 +61,28 @@ _METRICS = (
 
 
 class ProgressBar:
-    """A one-line progress bar on stderr (only redrawn when stderr is a terminal or at the end)."""
+    """Progress on stderr: a one-line bar redrawn in a terminal; in a log (not a terminal), one
+    line at every tenth of the work, so a long study in CI or under nohup still shows it."""
 
     def __init__(self, label: str) -> None:
         self.label = label
         self.start = time.perf_counter()
         self.tty = sys.stderr.isatty()
+        self._tenths = 0
 
     def __call__(self, done: int, total: int) -> None:
-        if not (self.tty or done == total):
+        tenths = 10 * done // total
+        if not (self.tty or tenths > self._tenths):
             return
+        self._tenths = tenths
         width = 30
         filled = round(width * done / total)
         elapsed = time.perf_counter() - self.start
         eta = elapsed / done * (total - done) if done else math.nan
         bar = "#" * filled + "-" * (width - filled)
-        end = "\n" if done == total else ""
-        print(f"\r{self.label} [{bar}] {done}/{total} batches, {elapsed:5.1f} s, eta {eta:4.1f} s",
-              end=end, file=sys.stderr, flush=True)  # fmt: skip
+        start, end = ("\r", "\n" if done == total else "") if self.tty else ("", "\n")
+        print(f"{start}{self.label} [{bar}] {done}/{total} batches, {elapsed:5.1f} s, "
+              f"eta {eta:4.1f} s", end=end, file=sys.stderr, flush=True)  # fmt: skip
 
 
 def summarise(outcome: Outcome) -> dict[str, Any]:

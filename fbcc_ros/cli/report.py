@@ -199,7 +199,46 @@ def markdown(summary: dict[str, Any]) -> str:
     lines += [f"- `{t}`: {n}" for t, n in summary["messages"].items()]
     lines += ["", "![trajectories](trajectories.png)", "![planes](planes.png)",
               "![states](states.png)", ""]  # fmt: skip
+    if "contact_estimate" in summary:
+        est = summary["contact_estimate"]
+        lines += ["Last contact identification (robust law): "
+                  + ", ".join(f"{k} {v:.3g}" for k, v in est.items()), "",
+                  "![estimate](estimate.png)", ""]  # fmt: skip
     return "\n".join(lines)
+
+
+def contact_estimate(bag: Bag, t0: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """The robust law's identification (``fbcc/contact_estimate``): times [s from t0] and rows
+    in ``identification.ESTIMATE_FIELDS`` order; None when the bag has none."""
+    from fbcc_ros.nodes.cdr import decode_array
+
+    if not bag.counts.get("/fbcc/contact_estimate"):
+        return None
+    rows = np.array([decode_array(m.data) for m in bag.of("/fbcc/contact_estimate")])
+    return rows[:, 0] - t0, rows[:, 1:]
+
+
+def draw_estimate(t: np.ndarray, rows: np.ndarray, path: Path) -> Path:
+    """The identified stiffness of the four rows (log), the friction bound, the guard's trips."""
+    from fbcc_ros.core.identification import ESTIMATE_FIELDS
+
+    col = {name: i for i, name in enumerate(ESTIMATE_FIELDS)}
+    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
+    for row, unit in (("dx", "N/m"), ("dy", "N/m")):
+        a1.semilogy(t, rows[:, col[f"k_{row}"]], label=f"k {row} [{unit}]")
+    for row in ("theta_x", "theta_y"):
+        a2.semilogy(t, rows[:, col[f"k_{row}"]], label=f"k {row} [N/rad]")
+    a3.plot(t, rows[:, col["friction"]], label="friction (upper bound)")
+    a3.step(t, rows[:, col["guard_trips"]] / 10.0, where="post", label="guard trips / 10")
+    a3.set(xlabel="t [s]")
+    for ax in (a1, a2, a3):
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=8, loc="upper left")
+    a1.set_title("contact identification (robust FBCC)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
 
 
 def report(bag_path: Path, out: Path | None, scenario: Path | None) -> dict[str, Any]:
@@ -215,6 +254,13 @@ def report(bag_path: Path, out: Path | None, scenario: Path | None) -> dict[str,
     draw_planes(series, out / "planes.png")
     draw_states(s, nominal, out / "states.png")
     summary = summarise(bag, s, nominal)
+    estimate = contact_estimate(bag, s.t0)
+    if estimate is not None:
+        from fbcc_ros.core.identification import ESTIMATE_FIELDS
+
+        draw_estimate(*estimate, out / "estimate.png")
+        summary["contact_estimate"] = dict(zip(ESTIMATE_FIELDS, estimate[1][-1].tolist(),
+                                               strict=True))  # fmt: skip
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     (out / "summary.md").write_text(markdown(summary))
     summary["out"] = str(out)

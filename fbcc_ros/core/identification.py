@@ -86,6 +86,14 @@ _THETA, _P, _USED = 0, 2 * N_REG, 2 * N_REG + N_REG * N_REG
 N_STATE = _USED + 2
 
 
+_ROW_NAMES = ("dx", "dy", "theta_x", "theta_y")
+#: The estimate as a flat row (the controller's ``fbcc/contact_estimate`` topic, after a stamp).
+ESTIMATE_FIELDS = (
+    *(f"k_{r}" for r in _ROW_NAMES), *(f"coupling_{r}" for r in _ROW_NAMES),
+    *(f"depth_gain_{r}" for r in _ROW_NAMES), "friction", "in_contact", "guard_trips",
+)  # fmt: skip
+
+
 @dataclasses.dataclass(frozen=True)
 class ContactEstimate:
     """What the identification knows of the contact (one trial, one instant).
@@ -108,6 +116,12 @@ class ContactEstimate:
     depth_gain: FloatArray
     friction: float
     in_contact: bool
+
+    def as_row(self, trips: int = 0) -> list[float]:
+        """The values in :data:`ESTIMATE_FIELDS` order (after the stamp); ``trips`` the
+        oscillation guard's trips so far."""
+        return [*self.stiffness, *self.coupling, *self.depth_gain, self.friction,
+                float(self.in_contact), float(trips)]  # fmt: skip
 
     def as_dict(self) -> dict[str, object]:
         """JSON-ready."""

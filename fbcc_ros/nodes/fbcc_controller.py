@@ -3,7 +3,9 @@
 Subscribes ``ft_sensor/compensated`` (WrenchStamped in {H}; each one is a control period) and
 ``fbcc/features`` (PoseStamped: the peg in {H}); publishes ``fbcc/command`` (PoseStamped: the
 command features as the peg's pose in {H}), ``fbcc/phase`` and ``fbcc/contact_state``
-(String, on change; the phase latched). Services ``fbcc/start`` and ``fbcc/abort``
+(String, on change; the phase latched) and, with the robust law, ``fbcc/contact_estimate``
+(Float64MultiArray at ``estimate_rate_hz`` while inserting: the stamp of the sample it follows,
+then ``identification.ESTIMATE_FIELDS``). Services ``fbcc/start`` and ``fbcc/abort``
 (std_srvs/Trigger).
 
 The law (``fbcc``, or the ``admittance`` baseline, or ``none``), its gains and the insertion come
@@ -19,17 +21,20 @@ from typing import Any
 import pinocchio as pin
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
-from std_msgs.msg import String
+from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import Trigger
 
 from fbcc_ros.core import scenario as scenario_io
 from fbcc_ros.core.control import make_law
 from fbcc_ros.core.errors import FbccError
 from fbcc_ros.core.features import features_from_pose, pose_from_features
+from fbcc_ros.core.identification import ESTIMATE_FIELDS
+from fbcc_ros.core.robust import RobustFbcc
 from fbcc_ros.core.segmentation import response_state
 from fbcc_ros.core.supervisor import SafetyLimits, Supervisor
 from fbcc_ros.core.wrench import response_from_wrench
 from fbcc_ros.nodes import topics
+from fbcc_ros.nodes.cdr import encode_array
 from fbcc_ros.nodes.convert import pose_from_cdr, pose_to_cdr, wrench_from_cdr
 from fbcc_ros.nodes.diagnostics import ERROR, OK, WARN, publish_diagnostics
 from fbcc_ros.nodes.params import Param, declare, find_scenario, run
@@ -48,7 +53,13 @@ TABLE = (
     Param("max_step_angle", 1e-3, "largest change of a tilt per command", "rad", 1e-9, 0.1,
           read_only=False),
     Param("auto_start", False, "start an insertion once features and wrenches arrive"),
+    Param("estimate_rate_hz", 100.0, "rate of fbcc/contact_estimate (robust law; at most the "
+          "control rate)", "Hz", 1.0, 10000.0),
 )  # fmt: skip
+
+#: The layout of fbcc/contact_estimate: one dimension labelled with the fields.
+ESTIMATE_LAYOUT = [(" ".join(("stamp", *ESTIMATE_FIELDS)), len(ESTIMATE_FIELDS) + 1,
+                    len(ESTIMATE_FIELDS) + 1)]  # fmt: skip
 
 
 def safety_limits(values: dict[str, Any]) -> SafetyLimits:
@@ -68,6 +79,11 @@ class FbccControllerNode(Node):
         self.pub_command = self.create_publisher(PoseStamped, topics.COMMAND, 10)
         self.pub_phase = self.create_publisher(String, topics.PHASE, topics.PHASE_QOS)
         self.pub_state = self.create_publisher(String, topics.CONTACT_STATE, 10)
+        self.robust = isinstance(law, RobustFbcc)
+        self.pub_estimate = self.create_publisher(Float64MultiArray, topics.CONTACT_ESTIMATE, 100)
+        # one estimate every this many periods
+        self.estimate_every = max(1, round(values["rate_hz"] / values["estimate_rate_hz"]))
+        self._periods = 0
         # raw: CDR bytes, decoded by fbcc_ros.nodes.convert (no rclpy message objects at 1 kHz)
         sub = self.create_subscription
         sub(WrenchStamped, topics.COMPENSATED_WRENCH, self.on_wrench, 10, raw=True)
@@ -115,6 +131,12 @@ class FbccControllerNode(Node):
             return
         response = response_from_wrench(wrench)
         command = self.sup.on_response(now, response)
+        self._periods += 1
+        law = self.sup.law
+        if (self.robust and self.sup.active and self._periods % self.estimate_every == 0
+                and isinstance(law, RobustFbcc)):  # fmt: skip
+            row = [stamp, *law.estimate(0).as_row(law.guard_trips(0))]
+            self.pub_estimate.publish(encode_array(row, ESTIMATE_LAYOUT))
         if command is not None:
             rotation, position = pose_from_features(command, self.nominal.peg_radius)
             pose = pin.SE3(rotation, position)
