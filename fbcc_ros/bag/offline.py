@@ -220,7 +220,7 @@ def replay_offline(bag: Bag, given: dict[str, dict[str, Any]]) -> OfflineResult:
                 continue
         if sup.phase == "idle":
             sup.start(stamp)
-        command = sup.on_response(stamp, response_from_wrench(out.wrench))
+        command = sup.on_response(stamp, response_from_wrench(out.wrench), stamp)
         if command is None:
             continue
         counts["stepped"] += 1

@@ -320,10 +320,19 @@ class ComplianceLaw:
         """Per trial, whether the force limit stopped it (bool array)."""
         return self._stopped
 
+    @property
+    def trips(self) -> FloatArray:
+        """Oscillation-guard trips per trial: Table I's laws have no guard."""
+        return np.zeros(len(self._command))
+
     def prepare(self, dt: float) -> None:
         """Refuse a period too long for the gains, and discretise the filter for it now (the
         matrix exponentials cost ~1.5 ms: not in the loop)."""
         self.filter.discretise(dt)
+
+    def max_period(self) -> float:
+        """The longest period [s] the law resolves (:meth:`ComplianceFilter.max_period`)."""
+        return self.filter.max_period()
 
     def step(self, response: ArrayLike, features: ArrayLike, dt: float) -> FloatArray:
         """One control period: compensated response F_ext (5,) or (N, 5) in {H}, measured

@@ -1,4 +1,4 @@
-"""Oscillation guard: detects a growing oscillation of a signal within a few periods.
+"""Oscillation guard: detects a growing or sustained oscillation of a signal within a few periods.
 
 Independent of the contact identification (it looks only at the signal), so it still acts when
 the identification is wrong. A loop that goes unstable near its crossover oscillates about its
@@ -6,14 +6,15 @@ set point (zero for FBCC's integrators, which drive the directed response to zer
 amplitude that grows by a roughly constant factor per half period. The guard watches the zero
 crossings of the signal and the largest |value| between two of them (a half-wave's peak):
 
-* a half-wave counts as *growing* when its peak exceeds ``growth`` times the previous one and
-  ``min_amplitude`` (noise crosses zero often, with small peaks);
-* ``cycles`` growing half-waves in a row trip the guard; a half-wave that does not grow
-  resets the count.
+* a half-wave counts as *not decaying* when its peak exceeds ``growth`` times the previous one
+  and ``min_amplitude`` (noise crosses zero often, with small peaks);
+* ``cycles`` such half-waves in a row trip the guard; one that decays faster resets the count.
 
-A decaying or steady oscillation never trips it; a sinusoid growing by 30 % a period trips it
-after ``cycles`` half-waves once it is above ``min_amplitude``. What to do on a trip is the
-law's business (:mod:`fbcc_ros.core.robust` backs the gains off and holds the depth).
+With ``growth`` > 1 only a growing oscillation trips it; with ``growth`` < 1 (the robust law's
+0.9) a sustained one does too — a limit cycle, which a loop delay larger than the margins allow
+settles into instead of growing without bound — while an oscillation that decays by more than
+``1 - growth`` a half-wave never does. What to do on a trip is the law's business
+(:mod:`fbcc_ros.core.robust` backs the gains off and holds the depth).
 """
 
 from __future__ import annotations
@@ -35,18 +36,19 @@ N_STATE = 4
 @dataclasses.dataclass(frozen=True)
 class GuardParams:
     """Attributes:
-    growth: A half-wave grows when its peak exceeds this factor times the previous one (> 1).
-    cycles: Growing half-waves in a row that trip the guard (>= 2).
+    growth: A half-wave counts when its peak exceeds this factor times the previous one (> 0;
+        below 1, a sustained oscillation counts too).
+    cycles: Counted half-waves in a row that trip the guard (>= 2).
     min_amplitude: Peaks below this never count (the signal's units; > 0).
     """
 
-    growth: float = 1.2
-    cycles: int = 3
+    growth: float = 0.9
+    cycles: int = 6
     min_amplitude: float = 1.0
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.growth) and self.growth > 1.0):
-            raise ConfigError("guard.growth", self.growth, "a factor > 1")
+        if not (math.isfinite(self.growth) and self.growth > 0.0):
+            raise ConfigError("guard.growth", self.growth, "a factor > 0")
         if isinstance(self.cycles, bool) or not isinstance(self.cycles, int) or self.cycles < 2:
             raise ConfigError("guard.cycles", self.cycles, "an integer >= 2")
         if not (math.isfinite(self.min_amplitude) and self.min_amplitude > 0):

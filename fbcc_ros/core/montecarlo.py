@@ -15,13 +15,13 @@ A part whose quasi-static push-in force (:meth:`PegHole.push_in_force` at L) exc
 :attr:`Trials.redrawn`, so that the study measures the controller, not the impossible.
 
 Every law sees the same trials (same seed). The trials are split in batches that run in lockstep
-(:func:`simulation.simulate`) on a pool of processes; batch j's sensor noise is seeded with
-``scenario.seed + j``, so a trial's outcome depends only on the seeds, not on the workers.
+(:func:`simulation.simulate`) on a pool of local processes or on a Dask cluster
+(:mod:`fbcc_ros.core.parallel`); batch j's sensor noise is seeded with ``scenario.seed + j``, so a
+trial's outcome depends only on the seeds, not on where or on how many workers it ran.
 """
 
 from __future__ import annotations
 
-import concurrent.futures
 import dataclasses
 import math
 from collections.abc import Callable, Sequence
@@ -31,6 +31,7 @@ import numpy as np
 from fbcc_ros.core.contact import FloatArray, PegHole
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.mapping_study import perturbed
+from fbcc_ros.core.parallel import run_tasks
 from fbcc_ros.core.scenario import Scenario
 from fbcc_ros.core.simulation import Outcome, simulate
 
@@ -134,9 +135,10 @@ def run_montecarlo(
     laws: Sequence[str],
     trials: Trials,
     *,
-    workers: int = 2,
+    workers: int | None = 2,
     batch: int = BATCH,
     progress: Callable[[int, int], None] | None = None,
+    scheduler: str | None = None,
 ) -> dict[str, Outcome]:
     """Run every law on the same trials; returns the outcomes per law, in trial order.
 
@@ -144,32 +146,21 @@ def run_montecarlo(
         sc: Scenario with the nominal geometry, gains, sensor, robot and timing.
         laws: Names of the laws to run.
         trials: From :func:`draw_trials`.
-        workers: Processes; 1 runs in this process (no pool).
+        workers: Local processes (None: every core); 1 runs in this process (no pool).
         batch: Trials per task (the lockstep batch size).
         progress: Called with (tasks done, tasks total) as tasks finish.
+        scheduler: Address of a running Dask scheduler to run the tasks on instead
+            (:func:`fbcc_ros.core.parallel.run_tasks`); the results are the same.
     """
-    if not (isinstance(workers, int) and workers >= 1):
+    if workers is not None and not (isinstance(workers, int) and workers >= 1):
         raise ConfigError("workers", workers, "an integer >= 1")
     parts = [slice(i, min(i + batch, len(trials))) for i in range(0, len(trials), batch)]
     # one noise seed per batch, derived from the scenario's seed: reproducible at any worker count
     tasks = [(law, j, part) for law in laws for j, part in enumerate(parts)]
-    results: dict[tuple[str, int], Outcome] = {}
-    done = 0
-    if workers == 1:
-        for law, j, part in tasks:
-            results[law, j] = _run_part(sc, law, trials.part(part), sc.seed + j)
-            done += 1
-            if progress:
-                progress(done, len(tasks))
-    else:
-        with concurrent.futures.ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = {
-                pool.submit(_run_part, sc, law, trials.part(part), sc.seed + j): (law, j)
-                for law, j, part in tasks
-            }
-            for fut in concurrent.futures.as_completed(futures):
-                results[futures[fut]] = fut.result()
-                done += 1
-                if progress:
-                    progress(done, len(tasks))
+    outcomes = run_tasks(
+        _run_part,
+        [(sc, law, trials.part(part), sc.seed + j) for law, j, part in tasks],
+        workers=workers, scheduler=scheduler, progress=progress,
+    )  # fmt: skip
+    results = {(law, j): o for (law, j, _), o in zip(tasks, outcomes, strict=True)}
     return {law: concat([results[law, j] for j in range(len(parts))]) for law in laws}

@@ -23,11 +23,13 @@ sensor noise, which the paper's ``x_d_limit`` is for). With ``Ĵ = J`` each deco
 ``k_j / k̂_j = ρ`` scales the loop gain by ρ, so the gain margin is the largest stiffness
 underestimate the loop survives. The identification errs stiff (floor, slow release) and the
 oscillation guard (:mod:`fbcc_ros.core.guard`) backs a row's gain off by ``guard_backoff`` when its
-filtered response oscillates with growing amplitude, and holds the depth for ``guard_hold``.
+filtered response oscillates without decaying (a growing oscillation, or a limit cycle such as a
+delay the margins did not budget for makes), and holds the depth for ``guard_hold``.
 
 **Excitation.** A dither per row, at its own frequency, of ``dither_force`` / k̂ (offsets) and
 ``dither_effort`` / k̂ (tilts), capped at ``dither_max_offset`` / ``dither_max_tilt``, keeps the
-identification excited; it is on only in contact.
+identification excited; it is on only in contact and while inserting (once the depth is reached
+the peg is left still, its last estimate held).
 
 **Depth.** The insertion advances at ``insertion.speed`` while the lateral loops are settled and
 slows, holds or backs off while they are not: with the lateral effort
@@ -48,7 +50,6 @@ simulator's batch and the controller's single row alike.
 
 from __future__ import annotations
 
-import cmath
 import dataclasses
 import math
 from collections.abc import Mapping
@@ -77,7 +78,12 @@ class RobustParams:
     """The robust configuration (the default of ``controller.params``). SI units.
 
     Attributes:
-        bandwidth: ω_c, crossover of every lateral loop [rad/s].
+        bandwidth: Largest ω_c, the crossover of every lateral loop [rad/s]; the law runs with
+            less when ``loop_delay`` leaves less than ``phase_margin`` (:func:`design`).
+        loop_delay: The cell's delay from a command to its effect in the measured features
+            and wrench [s]: the robot's servo and drivers, the nodes' queues; the margins budget
+            for it (a cell with more oscillates, which the guard catches).
+        phase_margin: The phase margin every loop keeps with ``loop_delay`` [rad].
         filter_frequency: ω_f of the response filter H_f [rad/s].
         filter_damping: ζ of H_f.
         dead_band: Dead zone of the filtered rows, in filtered-noise standard deviations.
@@ -92,12 +98,12 @@ class RobustParams:
         dither_max_tilt: Cap of the tilt dither [rad].
         offset_force: U of the offset rows: the lateral force at which the insertion holds [N].
         tilt_effort: U of the tilt rows [N, units of A(l) F].
-        depth_bandwidth: ω_l of the depth loop [rad/s].
-        depth_lead: Longest lead of the depth command over the measured depth, in seconds of
-            insertion speed [s].
+        depth_bandwidth: Largest ω_l of the depth loop [rad/s] (:func:`design`).
+        depth_lead: Longest lead of the depth command over the measured depth, beyond
+            ``loop_delay``, in seconds of insertion speed [s].
         fz_back_off: Axial force above which the insertion backs off [N].
         guard_growth, guard_cycles: :class:`fbcc_ros.core.guard.GuardParams`; the guard's
-            minimum amplitude is ``guard_amplitude`` times U of the row.
+            minimum amplitude is ``guard_amplitude`` times the row's filtered noise.
         guard_amplitude: See above (dimensionless).
         guard_backoff: Factor by which a tripped row's gain falls (> 1).
         guard_hold: How long the depth holds after a trip [s].
@@ -108,6 +114,8 @@ class RobustParams:
     """
 
     bandwidth: float = 30.0
+    loop_delay: float = 0.01
+    phase_margin: float = math.radians(50.0)
     filter_frequency: float = 150.0
     filter_damping: float = 0.7
     dead_band: float = 3.0
@@ -124,9 +132,9 @@ class RobustParams:
     depth_bandwidth: float = 50.0
     depth_lead: float = 0.01
     fz_back_off: float = 200.0
-    guard_growth: float = 1.2
-    guard_cycles: int = 3
-    guard_amplitude: float = 2.0
+    guard_growth: float = 0.9
+    guard_cycles: int = 8
+    guard_amplitude: float = 40.0
     guard_backoff: float = 4.0
     guard_hold: float = 0.2
     coupling_limit: float = 0.0
@@ -140,7 +148,7 @@ class RobustParams:
         "stiffness_min", "release", "dither_force", "dither_effort", "dither_max_offset",
         "dither_max_tilt", "offset_force", "tilt_effort", "depth_bandwidth", "depth_lead",
         "fz_back_off", "guard_amplitude", "guard_backoff", "guard_hold", "F_ext_limit",
-        "offset_resolution", "tilt_resolution",
+        "offset_resolution", "tilt_resolution", "phase_margin",
     )  # fmt: skip
 
     def __post_init__(self) -> None:
@@ -157,6 +165,11 @@ class RobustParams:
             and all(isinstance(v, (int, float)) and math.isfinite(v) and v > 0 for v in noise)
         ):
             raise ConfigError("sensor_noise", noise, "five standard deviations > 0 [N, N·m]")
+        d = self.loop_delay
+        if isinstance(d, bool) or not isinstance(d, (int, float)) or not 0.0 <= d <= 1.0:
+            raise ConfigError("loop_delay", d, "a delay in [0, 1] s")
+        if not self.phase_margin < math.pi / 2:
+            raise ConfigError("phase_margin", self.phase_margin, "< pi/2 rad (90°)")
         c = self.coupling_limit
         if isinstance(c, bool) or not isinstance(c, (int, float)) or not 0.0 <= c < 1.0:
             raise ConfigError("coupling_limit", c, "a number in [0, 1): 0 ignores the coupling")
@@ -238,8 +251,9 @@ _N_MAIN = 43
  _P_G_GROWTH, _P_G_CYCLES, _P_G_AMP, _P_G_BACKOFF, _P_G_HOLD, _P_FLIM2, _P_SPEED, _P_DEPTH,
  _P_NOISE_FZ, _P_BASE, _P_PER_DEPTH, _P_HOLE_DEPTH, _P_HOLE_RADIUS, _P_DT, _P_F0, _P_F1, _P_F2,
  _P_F3, _P_SU_X, _P_SU_Y, _P_SU_TX, _P_SU_TY, _P_MU0, _P_COUPLING, _P_GATE, _P_NFLOOR_X,
- _P_NFLOOR_Y, _P_NFLOOR_TX, _P_NFLOOR_TY) = range(46)  # fmt: skip
-_N_PARAMS = 46
+ _P_NFLOOR_Y, _P_NFLOOR_TX, _P_NFLOOR_TY, _P_G_MIN_X, _P_G_MIN_Y, _P_G_MIN_TX,
+ _P_G_MIN_TY) = range(50)  # fmt: skip
+_N_PARAMS = 50
 
 
 class RobustFbcc:
@@ -269,8 +283,13 @@ class RobustFbcc:
     # -- the ComplianceLaw interface ----------------------------------------------------------
     def prepare(self, dt: float) -> None:
         """Check the rate and compute the period's coefficients now (not in the loop)."""
-        self.params.check_rate(dt)
+        self._coefficients(dt)
         self._parameters(dt)
+
+    def max_period(self) -> float:
+        """The longest period [s] the law resolves (:meth:`RobustParams.check_rate`)."""
+        p = self.params
+        return 1.0 / max(p.filter_frequency, p.bandwidth, p.depth_bandwidth)
 
     def reset(self, features: ArrayLike) -> None:
         """Start an insertion from the measured features, shape (5,) or (N, 5)."""
@@ -353,7 +372,8 @@ class RobustFbcc:
         filtered = su * math.sqrt(min(1.0, p.filter_frequency * dt / (4 * p.filter_damping)))
         base, per_depth = nom.lever_terms()
         prm = np.zeros(_N_PARAMS)
-        prm[_P_WC] = p.bandwidth
+        chosen = self.design = design(p, dt)
+        prm[_P_WC] = chosen.bandwidth
         prm[_P_DB_X : _P_DB_TY + 1] = p.dead_band * filtered
         prm[_P_FORGET] = ident.forgetting(p.identification_window, dt)
         prm[_P_KMIN] = p.stiffness_min
@@ -361,7 +381,8 @@ class RobustFbcc:
         prm[_P_DITH_F], prm[_P_DITH_E] = p.dither_force, p.dither_effort
         prm[_P_DITH_MAX_X], prm[_P_DITH_MAX_T] = p.dither_max_offset, p.dither_max_tilt
         prm[_P_U_X], prm[_P_U_T] = p.offset_force, p.tilt_effort
-        prm[_P_WL], prm[_P_LEAD], prm[_P_FZ_BACK] = p.depth_bandwidth, p.depth_lead, p.fz_back_off
+        prm[_P_WL], prm[_P_FZ_BACK] = chosen.depth_bandwidth, p.fz_back_off
+        prm[_P_LEAD] = p.depth_lead + p.loop_delay  # the measured depth lags by the delay
         prm[_P_G_GROWTH], prm[_P_G_CYCLES] = p.guard_growth, p.guard_cycles
         prm[_P_G_AMP], prm[_P_G_BACKOFF], prm[_P_G_HOLD] = (
             p.guard_amplitude, p.guard_backoff, p.guard_hold)  # fmt: skip
@@ -379,6 +400,7 @@ class RobustFbcc:
         # noise floor of each row: the filtered noise over the resolution [N/m, N/rad]
         resolution = np.array([p.offset_resolution] * 2 + [p.tilt_resolution] * 2)
         prm[_P_NFLOOR_X : _P_NFLOOR_TY + 1] = filtered / resolution
+        prm[_P_G_MIN_X : _P_G_MIN_TY + 1] = p.guard_amplitude * filtered
         self._prm[dt] = prm
         return prm
 
@@ -447,7 +469,7 @@ def _robust_rows(
             f = ident.ROWS[j]
             scale = prm[_P_U_X] if j < 2 else prm[_P_U_T]
             if guard_mod.guard_step(grd[i, j], xf[f], prm[_P_G_GROWTH], int(prm[_P_G_CYCLES]),
-                                    prm[_P_G_AMP] * scale):  # fmt: skip
+                                    prm[_P_G_MIN_X + j]):  # fmt: skip
                 m[_C_BACKOFF + j] *= prm[_P_G_BACKOFF]
                 m[_C_TRIPS] += 1.0
                 m[_C_HOLD] = m[_C_T] + prm[_P_G_HOLD]
@@ -485,7 +507,7 @@ def _robust_rows(
             f = ident.ROWS[j]
             k_used = k_row[j]
             amp = 0.0
-            if contact:  # dither: a force-sized motion, capped
+            if contact and m[_C_LCMD] < prm[_P_DEPTH]:  # dither while inserting: sized, capped
                 cap = prm[_P_DITH_MAX_X] if j < 2 else prm[_P_DITH_MAX_T]
                 size = prm[_P_DITH_F] if j < 2 else prm[_P_DITH_E]
                 amp = min(size / k_used, cap)
@@ -542,24 +564,44 @@ class Margins:
     gain_margin: float
 
 
-def loop_transfer(params: RobustParams, dt: float, lag: float, z: complex) -> complex:
-    """The sampled loop of one lateral row at z, with k̂ = k (module doc):
+def loop_transfer(
+    params: RobustParams,
+    dt: float,
+    lag: float,
+    z: ArrayLike,
+    *,
+    delay: float = 0.0,
+    bandwidth: float | None = None,
+) -> np.ndarray:
+    """The sampled loop of one lateral row at z (scalar or array), with k̂ = k (module doc):
     integrator ω_c dt / (z - 1), the filter H_f (ZOH), the robot's first-order lag of time
-    constant ``lag`` (ZOH; 0: none), and one period of delay from the sample to the command."""
+    constant ``lag`` (ZOH; 0: none), one period from the sample to the command, and ``delay``
+    [s] more, in whole periods. ``bandwidth`` overrides ω_c."""
+    z = np.asarray(z, dtype=complex)
     c = params.filter_coefficients(dt)[:, 0]
-    phi = np.array([[c[0], c[1]], [c[2], c[3]]])
-    gam = np.array([c[4], c[5]])
-    h_f = np.linalg.solve(z * np.eye(2) - phi, gam)[0]  # output x of the filter
+    # first component of (z I - Phi)^-1 Gamma, the 2x2 inverse written out
+    det = (z - c[0]) * (z - c[3]) - c[1] * c[2]
+    h_f = ((z - c[3]) * c[4] + c[1] * c[5]) / det
     a = math.exp(-dt / lag) if lag > 0 else 0.0
     robot = (1 - a) / (z - a)
-    return complex(params.bandwidth * dt / (z - 1) * h_f * robot / z)
+    w_c = params.bandwidth if bandwidth is None else bandwidth
+    periods = 1 + round(delay / dt)
+    return w_c * dt / (z - 1) * h_f * robot / z**periods  # type: ignore[no-any-return]
 
 
-def loop_margins(params: RobustParams, dt: float, lag: float = 0.005) -> Margins:
+def loop_margins(
+    params: RobustParams,
+    dt: float,
+    lag: float = 0.005,
+    *,
+    delay: float = 0.0,
+    bandwidth: float | None = None,
+) -> Margins:
     """Phase margin, crossover and gain margin of the linearised lateral loop (frequency sweep
     of :func:`loop_transfer` on the unit circle)."""
-    omegas = np.geomspace(1e-2, math.pi / dt, 20000)
-    l_values = np.array([loop_transfer(params, dt, lag, cmath.exp(1j * w * dt)) for w in omegas])
+    omegas = np.geomspace(1e-2, math.pi / dt, 4000)
+    l_values = loop_transfer(params, dt, lag, np.exp(1j * omegas * dt), delay=delay,
+                             bandwidth=bandwidth)  # fmt: skip
     mag, ph = np.abs(l_values), np.unwrap(np.angle(l_values))
     i_c = int(np.argmax(mag < 1.0))
     crossover = float(omegas[i_c])
@@ -567,3 +609,40 @@ def loop_margins(params: RobustParams, dt: float, lag: float = 0.005) -> Margins
     below = np.flatnonzero(ph < -math.pi)
     gain_margin = float(1.0 / mag[below[0]]) if below.size else math.inf
     return Margins(phase_margin, crossover, gain_margin)
+
+
+@dataclasses.dataclass(frozen=True)
+class Design:
+    """The bandwidths the law runs with at one period (see :func:`design`).
+
+    Attributes:
+        bandwidth: ω_c of the lateral loops [rad/s].
+        depth_bandwidth: ω_l of the depth loop [rad/s].
+        margins: Of the lateral loop with ``loop_delay`` (and no robot lag beyond it).
+    """
+
+    bandwidth: float
+    depth_bandwidth: float
+    margins: Margins
+
+
+def design(params: RobustParams, dt: float) -> Design:
+    """The largest lateral crossover up to ``bandwidth`` whose sampled loop, delayed by
+    ``loop_delay``, keeps ``phase_margin`` (bisection on :func:`loop_margins`), and the depth
+    loop's: an integrator behind the same delay has the phase margin
+    ``π/2 - ω_l (loop_delay + dt)``, so ``ω_l <= (π/2 - margin) / (loop_delay + dt)``."""
+    delay, want = params.loop_delay, params.phase_margin
+
+    def margin(w: float) -> float:
+        return loop_margins(params, dt, 0.0, delay=delay, bandwidth=w).phase_margin
+
+    low, high = 0.0, params.bandwidth
+    if margin(high) < want:
+        for _ in range(40):
+            mid = 0.5 * (low + high)
+            low, high = (mid, high) if margin(mid) >= want else (low, mid)
+        w_c = low
+    else:
+        w_c = high
+    w_l = min(params.depth_bandwidth, (math.pi / 2 - want) / (delay + dt))
+    return Design(w_c, w_l, loop_margins(params, dt, 0.0, delay=delay, bandwidth=w_c))

@@ -91,6 +91,7 @@ class Outcome:
     tilt_misadjustment: FloatArray
     final_features: FloatArray
     force_limited: np.ndarray
+    guard_trips: FloatArray  # the oscillation guard's trips (robust law; 0 otherwise)
 
     def summary(self, i: int = 0) -> dict[str, Any]:
         """The DESIGN §4 summary of trial i (without the state sequence), JSON-ready."""
@@ -108,6 +109,7 @@ class Outcome:
             ),
             "force_limited": bool(self.force_limited[i]),
             "peak_force": float(self.peak_force[i]),
+            "guard_trips": int(self.guard_trips[i]),
         }
 
 
@@ -150,7 +152,7 @@ class _Metrics:
         self.final = x[-1].copy()
         self.assembled_at_end = assembled[-1]
 
-    def outcome(self, force_limited: np.ndarray) -> Outcome:
+    def outcome(self, force_limited: np.ndarray, trips: FloatArray | None = None) -> Outcome:
         n_tail = self.steps - self.resid_from
         sign0 = np.sign(self.theta0)
         # past zero, opposite to the initial sign; any excursion when the initial tilt is zero
@@ -170,6 +172,7 @@ class _Metrics:
             tilt_misadjustment=np.maximum(grown, 0.0).max(axis=1),
             final_features=self.final,
             force_limited=force_limited,
+            guard_trips=np.zeros(len(self.final)) if trips is None else trips,
         )
 
 
@@ -224,7 +227,7 @@ def simulate(
         if record:
             chunks.append((t, buf_x[:kk].copy(), buf_w[:kk].copy(), buf_m[:kk].copy(),
                            buf_c[:kk].copy()))  # fmt: skip
-    outcome = metrics.outcome(law.stopped.copy())
+    outcome = metrics.outcome(law.stopped.copy(), law.trips.copy())
     if not record:
         return outcome, None
     traj = Trajectory(*(np.concatenate([c[i] for c in chunks]) for i in range(5)))

@@ -13,6 +13,11 @@ A fault holds the last command and records why:
 
 Every command moves at most ``max_step`` (offsets and depth, [m]) and ``max_step_angle``
 (tilts, [rad]) from the previous one, whatever the law asks.
+
+Time comes from the samples: given the stamp of each response, the law steps by the time since
+the previous one, counted in whole control periods (so its coefficients are computed once, at
+construction, for each count) and bounded by the longest period the law resolves; a period of
+more than one counts as ``late``. Without stamps every response is one period.
 """
 
 from __future__ import annotations
@@ -27,6 +32,9 @@ from fbcc_ros.core.control import Law
 from fbcc_ros.core.errors import ConfigError
 
 FloatArray = NDArray[np.float64]
+
+#: The most control periods one sample may stand for (a longer gap is stepped as this many).
+MAX_PERIODS = 10
 
 PHASES = ("idle", "inserting", "inserted", "force_limit", "aborted", "fault")
 ACTIVE = ("inserting", "inserted")
@@ -64,6 +72,12 @@ class Supervisor:
         # a rate too low for the gains is refused here, at start-up, not at the first command;
         # and the coefficients (matrix exponentials, ~1.5 ms) are not computed in the loop
         law.prepare(dt)
+        #: the most periods one sample may stand for: the longest period the law resolves
+        self.max_periods = max(1, min(MAX_PERIODS, int(law.max_period() / dt * (1 + 1e-9))))
+        for k in range(2, self.max_periods + 1):
+            law.prepare(k * dt)
+        self.late = 0
+        self._t_sample: float | None = None
         self.law = law
         self.dt = dt
         self.limits = limits
@@ -101,6 +115,7 @@ class Supervisor:
             return False, "no recent features: is the kinematics node running?"
         self.law.reset(self.features)
         self.command = self.features.copy()
+        self._t_sample = None
         self.phase, self.reason = "inserting", ""
         self._t_wrench = self._t_ran = now
         return True, "insertion started"
@@ -135,9 +150,21 @@ class Supervisor:
                     f"stale {name}: none for {now - t:.3f} s (timeout {self.limits.timeout} s)"
                 )
 
-    def on_response(self, now: float, response: ArrayLike) -> FloatArray | None:
-        """One control period on a compensated response; returns the command to publish (the
-        held one outside an insertion, None before the first)."""
+    def period(self, stamp: float | None) -> float:
+        """The time the law steps for a sample stamped ``stamp`` [s] (module doc)."""
+        last, self._t_sample = self._t_sample, stamp
+        if stamp is None or last is None:
+            return self.dt
+        periods = min(max(round((stamp - last) / self.dt), 1), self.max_periods)
+        self.late += periods > 1
+        return periods * self.dt
+
+    def on_response(
+        self, now: float, response: ArrayLike, stamp: float | None = None
+    ) -> FloatArray | None:
+        """One control period on a compensated response (sampled at ``stamp`` [s], if given);
+        returns the command to publish (the held one outside an insertion, None before the
+        first)."""
         w = np.asarray(response, dtype=float)
         if not self.active:
             return self.command
@@ -148,7 +175,7 @@ class Supervisor:
         self._check(now)
         if not self.active or self.features is None or self.command is None:
             return self.command
-        x_c = self.law.step(w, self.features, self.dt)
+        x_c = self.law.step(w, self.features, self.period(stamp))
         law_phase = self.law.phase_of(0)
         if law_phase == "force_limit":
             self.phase = "force_limit"

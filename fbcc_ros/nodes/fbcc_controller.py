@@ -130,7 +130,7 @@ class FbccControllerNode(Node):
             self.get_logger().error(f"wrench rejected: {exc}", throttle_duration_sec=1.0)
             return
         response = response_from_wrench(wrench)
-        command = self.sup.on_response(now, response)
+        command = self.sup.on_response(now, response, stamp)
         self._periods += 1
         law = self.sup.law
         if (self.robust and self.sup.active and self._periods % self.estimate_every == 0

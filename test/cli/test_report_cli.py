@@ -21,16 +21,20 @@ BAG = ROOT / "test" / "data" / "bags" / "short_interference"
 def test_the_report_of_a_recorded_session(tmp_path: Path, capsys) -> None:
     assert report.main([str(BAG), "--out", str(tmp_path)]) == 0
     assert "inserted" in capsys.readouterr().out
-    for name in ("trajectories.png", "planes.png", "states.png"):
+    for name in ("trajectories.png", "planes.png", "states.png", "estimate.png"):
         assert (tmp_path / name).stat().st_size > 20_000, name
     summary = json.loads((tmp_path / "summary.json").read_text())
     bag = read_bag(BAG)
     assert summary["messages"] == {t: bag.counts[t] for t in bag.topics}
     assert summary["truncated"] == "" and summary["commands"] == bag.counts["/fbcc/command"]
     assert [p["phase"] for p in summary["phases"]] == ["idle", "inserting", "inserted"]
-    # the ramp of the scenario: 2 mm at 5 mm/s from the first command
-    assert summary["insertion_time_s"] == pytest.approx(0.4, abs=0.01)
-    assert summary["final_features"]["l"] == pytest.approx(2e-3, abs=1e-6)
+    # the scenario's 4 mm at no more than 5 mm/s from the first command (the robust law slows
+    # or holds the depth while the lateral loops settle), within the 1.6 s session
+    assert 0.8 - 0.01 <= summary["insertion_time_s"] <= 1.6
+    assert summary["final_features"]["l"] == pytest.approx(4e-3, abs=1e-6)
+    # the robust law's identification, recorded and reported: positive, bounded stiffnesses
+    est = summary["contact_estimate"]
+    assert est["k_dx"] > 0 and est["k_theta_y"] > 0 and 0 < est["friction"] < 1
     for plane in ("XOZ", "YOZ"):
         assert sum(summary["contact_state_share"][plane].values()) == pytest.approx(1.0, abs=1e-3)
     # the peak axial force is the one the mock's truth had, seen through the compensation

@@ -14,7 +14,7 @@ from fbcc_ros.core.contact import PegHole
 from fbcc_ros.core.control import ComplianceParams, make_law, params_from_mapping
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.guard import GuardParams, OscillationGuard
-from fbcc_ros.core.robust import RobustFbcc, RobustParams, loop_margins, loop_transfer
+from fbcc_ros.core.robust import RobustFbcc, RobustParams, design, loop_margins, loop_transfer
 from fbcc_ros.core.scenario import validate
 from fbcc_ros.core.segmentation import apply_direction
 from fbcc_ros.core.simulation import simulate
@@ -199,3 +199,61 @@ def test_one_configuration_assembles_across_stiffness(fit: str, k: float) -> Non
     s = outcome.summary(0)
     assert s["success"] and not s["force_limited"], s
     assert s["residual_force"] <= 0.5 and s["tilt_overshoot"] < math.radians(0.2), s
+
+
+def test_guard_with_the_law_defaults_catches_a_limit_cycle_not_a_decaying_ring() -> None:
+    """The robust law's guard (growth 0.9): a sustained oscillation (a limit cycle, as an
+    unbudgeted loop delay makes) trips it; one decaying by 20 % a half-wave does not."""
+    p = RobustParams()
+    params = GuardParams(p.guard_growth, p.guard_cycles, 1.0)
+    t = np.arange(0, 3.0, DT)
+    sustained = 5.0 * np.sin(2 * math.pi * 4 * t)
+    ringing = 50.0 * 0.8 ** (2 * 4 * t) * np.sin(2 * math.pi * 4 * t)  # x0.8 a half-wave
+    for signal, trips in ((sustained, True), (ringing, False)):
+        g = OscillationGuard(params)
+        assert any(g.update(v) for v in signal) == trips
+
+
+def test_the_design_keeps_the_stated_margin_with_the_stated_delay() -> None:
+    """The bandwidths fall with the loop delay so that the delayed loop keeps its margin; a
+    loop run at the undelayed bandwidth with that delay would not."""
+    for delay in (0.0, 0.02, 0.05, 0.1):
+        p = RobustParams(loop_delay=delay)
+        d = design(p, DT)
+        assert d.bandwidth <= p.bandwidth and d.depth_bandwidth <= p.depth_bandwidth
+        assert d.margins.phase_margin >= p.phase_margin - 1e-3
+        # the depth loop: an integrator behind the delay
+        assert math.pi / 2 - d.depth_bandwidth * (delay + DT) >= p.phase_margin - 1e-9
+    fast = loop_margins(RobustParams(), DT, 0.0, delay=0.05, bandwidth=RobustParams().bandwidth)
+    assert fast.phase_margin < math.radians(20)
+
+
+@pytest.mark.parametrize("delay_ms", [20, 40])
+def test_a_stated_loop_delay_keeps_the_insertion_stable(delay_ms: int) -> None:
+    """A cell whose commands take effect ``delay_ms`` late (queues, drivers): stating the delay
+    assembles it; the gains designed for 10 ms do not at 40 ms."""
+    ph = _pair("interference", 1.84e8)
+    dev = np.array([5e-5, -3e-5, 0.0, 0.0, 0.0])
+
+    def run(params: RobustParams) -> tuple[bool, float]:
+        law = RobustFbcc(ph, params)
+        p = np.zeros(5)
+        law.reset(p)
+        rng = np.random.default_rng(0)
+        queue = [np.zeros(5)] * delay_ms
+        a = 1 - math.exp(-DT / 0.005)
+        peak = 0.0
+        for _ in range(4000):
+            x = p + dev
+            x[2] = max(x[2], 0.0)
+            w = ph.response(x)
+            peak = max(peak, float(np.linalg.norm(w[:2])))
+            queue.append(law.step(w + rng.normal(size=5) * [0.05, 0.05, 0.05, 2e-3, 2e-3],
+                                  p, DT))  # fmt: skip
+            p += a * (queue.pop(0) - p)
+        return law.phase_of(0) == "inserted" and abs(p[2] - 0.01) < 1e-5, peak
+
+    ok, peak = run(RobustParams(loop_delay=delay_ms * 1e-3 + 0.005))
+    assert ok and peak < 20.0
+    if delay_ms == 40:
+        assert not run(RobustParams())[0]

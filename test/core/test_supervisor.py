@@ -198,3 +198,33 @@ def test_mock_cell_loop_agrees_with_the_simulator() -> None:
     assert expected[2] - final[2] == pytest.approx(shortfall, abs=2e-5)
     # peak Fz: 68.5 N here against 62.9 N simulated (the tilted hole, IK, one-step delays)
     assert peak_fz == pytest.approx(outcome.peak_fz[0], rel=0.15)
+
+
+def test_the_law_steps_the_time_between_sample_stamps() -> None:
+    """A sample two periods after the previous one is stepped as two periods (and counted
+    late); a gap longer than the law resolves is bounded; without stamps, one period each."""
+    sc = scenario.validate(paper_scenario("interference", "fbcc"))
+    steps: list[float] = []
+
+    def run(stamps: list[float | None]) -> Supervisor:
+        law = make_law("fbcc", sc.geometry, sc.params, sc.insertion)
+        original = law.step
+
+        def spy(response, features, dt):  # type: ignore[no-untyped-def]
+            steps.append(dt)
+            return original(response, features, dt)
+
+        law.step = spy  # type: ignore[method-assign]
+        sup = Supervisor(law, DT, SafetyLimits(timeout=1.0))
+        sup.on_features(0.0, np.zeros(5))
+        sup.start(0.0)
+        for k, stamp in enumerate(stamps):
+            sup.on_response(k * DT, np.zeros(5), stamp)
+        return sup
+
+    sup = run([0.0, 0.001, 0.003, 0.004, 1.0])
+    assert steps == pytest.approx([DT, DT, 2 * DT, DT, sup.max_periods * DT])
+    assert sup.late == 2 and 1 < sup.max_periods <= 10
+    steps.clear()
+    run([None, None, None])
+    assert steps == pytest.approx([DT] * 3)
