@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import json
 import math
 import os
@@ -41,6 +42,7 @@ from fbcc_ros.core import scenario as scenario_io
 from fbcc_ros.core.contact import FEATURE_NAMES
 from fbcc_ros.core.control import LAWS
 from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.holder import Holder
 from fbcc_ros.core.montecarlo import (
     BATCH,
     Trials,
@@ -251,6 +253,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="draw eq. 8's k log-uniform in [LOW, HIGH] GPa per trial")
     parser.add_argument("--friction", type=float, nargs=2, metavar=("LOW", "HIGH"),
                         help="draw mu uniform in [LOW, HIGH] per trial")
+    parser.add_argument("--holder", type=float, nargs=2, metavar=("N_PER_M", "NM_PER_RAD"),
+                        help="hold the peg in a holder of this lateral and angular stiffness "
+                        "(overrides the scenario's holder; fbcc_ros/core/holder.py)")
     parser.add_argument("--all-parts", action="store_true",
                         help="keep parts whose push-in force exceeds 2/3 of the force limit")
     args = parser.parse_args(argv)
@@ -270,6 +275,11 @@ def main(argv: list[str] | None = None) -> int:
     friction = _range(parser, "--friction", args.friction, 1e-3, 0.99, "")
     if args.seed < 0:
         parser.error(f"--seed={args.seed} is not allowed: expected an integer >= 0")
+    if args.holder is not None:
+        try:
+            sc = dataclasses.replace(sc, holder=Holder(*args.holder))
+        except ConfigError as exc:
+            parser.error(f"--holder {args.holder[0]:g} {args.holder[1]:g}: {exc}")
     feasible = None if args.all_parts else 2.0 / 3.0 * sc.params.F_ext_limit
     trials = draw_trials(
         sc.geometry, args.trials, args.seed, args.max_offset_mm * 1e-3,
@@ -298,6 +308,7 @@ def main(argv: list[str] | None = None) -> int:
         "max_offset_mm": args.max_offset_mm,
         "max_tilt_deg": args.max_tilt_deg, "stiffness_gpa": stiffness_gpa,
         "friction": friction, "feasible_force": feasible, "parts_redrawn": trials.redrawn,
+        "holder": None if sc.holder is None else [sc.holder.lateral, sc.holder.angular],
     }  # fmt: skip
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     write_trials(trials, results, out / "trials.csv")

@@ -14,6 +14,8 @@ insertion      depth (default: hole_depth) [m], speed (0.005) [m/s]
 sensor         noise: standard deviations of (Fx, Fy, Fz, Mx, My) [N, N·m] or 0
                (default 0.05 N, 0.002 N·m); bias: (Fx, Fy, Fz, Mx, My) (default 0)
 robot          lag: time constant of the position-controlled robot [s] (0.005)
+holder         the compliance of arm, sensor and gripper at the grip point (absent: rigid):
+               lateral [N/m], angular [N·m/rad] (fbcc_ros/core/holder.py has typical values)
 tolerance      success tolerances: offset [m] (2e-5), tilt [rad] (0.0035), depth [m] (1e-5),
                force [N] (1.0): a plane whose lateral force is below it counts as settled
 rate_hz        control and simulation rate [Hz] (1000)
@@ -40,6 +42,7 @@ import yaml
 from fbcc_ros.core.contact import FloatArray, PegHole
 from fbcc_ros.core.control import LAWS, Insertion, Params, params_from_mapping
 from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.holder import Holder
 
 #: Plausibility ranges (SI): a value outside smells of mm, degrees or GPa given by mistake.
 _LENGTH_MAX = 0.5  # [m] radii and depths of a peg for a robot cell
@@ -83,6 +86,7 @@ class Scenario:
     duration: float
     seed: int
     name: str = "scenario"
+    holder: Holder | None = None  # None: the peg held rigidly
 
     @property
     def law(self) -> str:
@@ -187,8 +191,8 @@ def _laws(value: Any) -> tuple[str, ...]:
 
 def validate(scenario: Any, name: str = "scenario") -> Scenario:
     """Check a scenario mapping and fill in the defaults; raises ConfigError naming the key."""
-    top = ("geometry", "controller", "initial", "insertion", "sensor", "robot", "tolerance",
-           "rate_hz", "duration", "seed")  # fmt: skip
+    top = ("geometry", "controller", "initial", "insertion", "sensor", "robot", "holder",
+           "tolerance", "rate_hz", "duration", "seed")  # fmt: skip
     s = _mapping("scenario", scenario, top, ("geometry", "initial"))
     geometry = _geometry(s["geometry"])
 
@@ -226,6 +230,13 @@ def validate(scenario: Any, name: str = "scenario") -> Scenario:
     rob = _mapping("robot", s.get("robot", {}), ("lag",))
     lag = _number("robot.lag", rob.get("lag", DEFAULT_LAG), 0, 1, "s")
 
+    holder = None
+    if "holder" in s:
+        h = _mapping("holder", s["holder"], ("lateral", "angular"), ("lateral", "angular"))
+        holder = Holder(_number("holder.lateral", h["lateral"], 0, 1e12, "N/m", low_open=True),
+                        _number("holder.angular", h["angular"], 0, 1e9, "N·m/rad",
+                                low_open=True))  # fmt: skip
+
     tol = _mapping("tolerance", s.get("tolerance", {}), tuple(DEFAULT_TOLERANCE))
     tolerance = Tolerance(
         _number(
@@ -254,7 +265,7 @@ def validate(scenario: Any, name: str = "scenario") -> Scenario:
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ConfigError("seed", seed, "an integer >= 0")
     return Scenario(geometry, laws, params, initial, insertion, noise, bias, lag, tolerance,
-                    rate, duration, seed, name)  # fmt: skip
+                    rate, duration, seed, name, holder)  # fmt: skip
 
 
 class _Loader(yaml.SafeLoader):

@@ -9,6 +9,9 @@ The plant, per trial:
   ``p(k+1) = p(k) + (1 - exp(-dt/tau)) (x_c(k) - p(k))``;
 * **the contact** is the analytic model of eq. (5)-(13) (:mod:`fbcc_ros.core.contact`), with the
   true radii; the peg touches nothing while its depth is <= 0;
+* **the holder** (scenario ``holder``, absent: rigid) is a spring at the grip point in series
+  with the contact: each step the peg settles where the holder balances the contact
+  (:class:`fbcc_ros.core.holder.HolderSolver`), and the true features are that position;
 * **the sensor** adds its bias and white Gaussian noise; the dynamic compensation is taken as
   ideal apart from that bias (issue "dynamic compensation" models the rest).
 
@@ -56,6 +59,7 @@ import numpy as np
 from fbcc_ros.core.contact import FEATURE_NAMES, ContactBatch, FloatArray, PegHole
 from fbcc_ros.core.control import make_law
 from fbcc_ros.core.errors import ConfigError, FbccError
+from fbcc_ros.core.holder import HolderSolver
 from fbcc_ros.core.scenario import Scenario, validate
 from fbcc_ros.core.segmentation import feature_state
 
@@ -205,6 +209,7 @@ def simulate(
     dt = 1.0 / sc.rate_hz
     alpha = 1.0 - math.exp(-dt / sc.lag) if sc.lag > 0 else 1.0  # first-order lag of the robot
 
+    holder = HolderSolver(sc.holder) if sc.holder is not None else None
     pose = np.zeros((n, 5))  # the robot's pose as features of the believed hole
     law.reset(pose)
     metrics = _Metrics(sc, dev)
@@ -214,10 +219,15 @@ def simulate(
     for k0 in range(0, steps, _CHUNK):
         kk = min(_CHUNK, steps - k0)
         for j in range(kk):
-            x = pose + dev  # true features
+            x = pose + dev  # true features (of a rigid holder)
             x_touch = x.copy()
             np.maximum(x_touch[:, 2], 0.0, out=x_touch[:, 2])  # above the hole: no contact
-            w = contact.response(x_touch)
+            if holder is None:
+                w = contact.response(x_touch)
+            else:  # the peg deflects in its holder until the holder balances the contact
+                settled = holder.step(x_touch, contact)
+                w = settled.wrench
+                x = x + settled.delta
             measured = w + sc.bias + sc.noise * rng.standard_normal((n, 5))
             command = law.step(measured, pose, dt)
             pose += alpha * (command - pose)

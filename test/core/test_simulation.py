@@ -158,6 +158,35 @@ def test_push_in_force_is_the_models_centred_axial_force() -> None:
     assert validate(paper_scenario("clearance")).geometry.push_in_force() == 0.0
 
 
+def test_a_holder_in_series_softens_the_contact_and_a_stiff_one_changes_nothing() -> None:
+    """Scenario ``holder``: a holder far stiffer than the contact gives the rigid plant's run;
+    the LBR + F/T sensor + gripper estimate (2.5e4 N/m, 30 N·m/rad) lets the peg give way, so
+    the same command meets a smaller lateral force at first contact."""
+    data = {**paper_scenario("clearance"), "duration": 0.6, "sensor": {"noise": 0}}
+    data["geometry"] = {**data["geometry"], "stiffness": 1e10}
+    rigid = simulate(validate(data), "none")[1]
+    stiff = simulate(validate({**data, "holder": {"lateral": 1e12, "angular": 1e9}}), "none")[1]
+    soft = simulate(validate({**data, "holder": {"lateral": 2.5e4, "angular": 30.0}}), "none")[1]
+    assert rigid is not None and stiff is not None and soft is not None
+    np.testing.assert_allclose(stiff.response, rigid.response, rtol=1e-3, atol=1e-2)
+    lateral = [np.abs(t.response[:, 0, :2]).max() for t in (rigid, soft)]
+    assert lateral[1] < 0.2 * lateral[0], lateral
+    # the peg's true features carry the deflection (microns here)
+    assert np.abs(soft.features[:, 0, 0] - rigid.features[:, 0, 0]).max() > 1e-6
+
+
+@pytest.mark.parametrize(
+    ("holder", "field"),
+    [({"lateral": 0, "angular": 30.0}, "holder.lateral"),
+     ({"lateral": 2.5e4}, "holder.angular"),
+     ({"lateral": 2.5e4, "angular": 30.0, "axial": 1.0}, "holder.axial")],
+)  # fmt: skip
+def test_a_bad_holder_is_named(holder: dict[str, float], field: str) -> None:
+    with pytest.raises(ConfigError) as err:
+        validate({**paper_scenario("clearance"), "holder": holder})
+    assert err.value.field == field
+
+
 def test_wilson_interval() -> None:
     lo, hi = wilson_interval(1000, 1000)
     assert hi == 1.0 and lo == pytest.approx(0.99617, abs=2e-5)  # (z^2/n) / (1 + z^2/n)

@@ -1,0 +1,812 @@
+"""The compliance of what holds the peg (arm + F/T sensor + gripper), in series with the contact.
+
+The simulator's plant (:mod:`fbcc_ros.core.simulation`) holds the peg rigidly: the true features
+are the robot's pose plus the hole's deviation. A real peg sits at the end of a chain of springs —
+the arm's joints, the F/T sensor's flexures, the grip of the fingers — so under a contact wrench it
+deflects, and the contact, much stiffer than the chain, sees far less force than a rigid holder
+would put through it. This module finds that quasi-static equilibrium.
+
+**Model.** The holder is one diagonal spring at the *grip point* G, the centre of the peg's top
+face (``peg_length`` along the axis from the tip, where a parallel gripper holds it; the flange,
+sensor and arm sit above G and their compliances are referred to it):
+
+* ``lateral`` [N/m]: the translation ``u = (u_x, u_y)`` of G along x and y of {H};
+* ``angular`` [N·m/rad]: the rotation ``phi = (phi_x, phi_y)`` of the peg about x and y through G
+  (right-hand, the same sense as theta_x, theta_y; DESIGN §3);
+* axially (depth l) and about z the holder stays rigid: the insertion is position controlled and
+  the depth is the commanded one. No coupling between translation and rotation at G (a remote
+  centre compliance device, whose centre sits near the tip, is a different model).
+
+**Equilibrium.** The response ``W = (Fx, Fy, Fz, Mx, My)`` is the wrench the peg exerts on the hole
+with moments at the contact's acting point A; the hole pushes back on the peg with ``-W``. The
+peg is weightless and quasi-static, so the holder's spring balances ``-W`` at G:
+
+.. math::
+    k_l\\,u = -(F_x, F_y), \\qquad k_a\\,\\phi = -(M_{G,x}, M_{G,y}),
+
+with ``M_G`` the moment of the peg-on-hole wrench about G. With the force vector on the hole
+``F = (Fx, Fy, -Fz)`` (Fz > 0 drags the hole along -z, see :meth:`PegHole.response`) and
+``M_G = M_A + (A - G) × F``:
+
+.. math::
+    M_{G,x} = M_x + (y_G - y_A) F_z + (z_G - z_A) F_y, \\qquad
+    M_{G,y} = M_y - (z_G - z_A) F_x - (x_G - x_A) F_z,
+
+where, as in the contact kernel's ``peg_top`` acting point (with lean ``t = (tan theta_y,
+-tan theta_x)``, ``tan theta = |t|``), ``z_G = (r sin theta + peg_length - l) cos theta`` and
+``(x_G, y_G) = (dx, dy) + (peg_length - l/2) cos theta · t``; A is ``(0, 0, -(L + H))`` for the
+default ``hole_bottom`` acting point, and A = G (no transfer) for ``peg_top``. Check of the sign: a
+lateral push Fx > 0 on the hole at a height h below G gives ``M_G,y = -h Fx``, so
+``phi_y = h Fx / k_a > 0``: the peg's lower end swings back toward -x, as it should.
+
+**Features.** The peg is a rigid body turned by phi about G and shifted by u, so its features
+move by
+
+.. math::
+    \\delta = (u_x - h\\,\\phi_y,\\; u_y + h\\,\\phi_x,\\; 0,\\; \\phi_x,\\; \\phi_y),
+    \\qquad h = \\mathrm{peg\\_length} - l/2,
+
+h being the distance along the axis from the feature point (the axis at depth l/2) up to G
+(first order in the tilts; the axial drop of order h phi²/2 is neglected: the depth is rigid).
+
+**Solver.** The contact is ~1e7-1e9 N/m stiff (or more) against a holder of 1e4-1e7 N/m, so a
+fixed-point iteration ``u <- -F(u)/k`` diverges. :class:`HolderSolver` runs a damped Newton
+iteration per row on the four coordinates (u_x, u_y, phi_x, phi_y), in units scaled by the
+tolerances (so that the holder's spring is the identity and "converged" means
+``|residual| <= 1`` in every coordinate):
+
+* the Jacobian comes from forward differences (4 extra evaluations of the row), is kept between
+  steps and refined by Broyden updates, and is recomputed only where a step fails to cut the
+  squared residual by 4;
+* a step is accepted only if it decreases the squared residual (Armijo); a step of a fresh
+  Jacobian that does not is halved, down to 1e-10 (past a stiff wall the right fraction can be
+  1e-4), where the row gives up this call;
+* each step starts from the last solution extrapolated linearly in time (``2 q_k - q_{k-1}``),
+  or from a given ``delta0``;
+* a start that touches nothing with the holder deflected is no equilibrium, and there the
+  Jacobian is the holder's alone, which knows nothing of the wall: such a start falls back on
+  the last solution, then on no deflection (the solution if that touches nothing);
+* rows that do not converge within ``max_iter`` iterations keep their best point and are
+  flagged in ``converged``; nothing raises inside the iteration.
+
+For a :class:`ContactBatch` (or its bound ``response``) the iteration is compiled (numba) and
+calls the contact kernel one row at a time, so each row costs only the evaluations it needs; any
+other response callable runs the same iteration batched in numpy (all N rows per call).
+
+A cold start deep in the wall (kN of rigid force) against a soft grasp can stall at the edge of
+a stiff edge contact, where the equilibrium lies within a nanometre of the contact's onset and
+the contact force grows faster than linearly: :func:`solve` then continues the failed rows from a
+1000 times stiffer holder down to the real one. In a closed loop the warm start keeps each step
+small; rows that still fail are flagged, and the next step starts from their best point.
+
+**Typical stiffness** at the grip point G of a ~50 mm peg held at its top by a parallel gripper.
+"Datasheet" values are manufacturers' calculated stiffness as recalled here, not checked against
+the current datasheets (the document search available when this was written did not return
+them); "estimate" values are orders of magnitude from the structure. Measure the real cell before
+relying on them: push on the grasped peg at G and at its tip with a force gauge and read the
+deflections (two points give k_l and k_a).
+
+==============================  ============  =================  ===============================
+element                         lateral       angular            source
+                                [N/m]         [N·m/rad]
+==============================  ============  =================  ===============================
+ATI Gamma F/T sensor            9.1e6         1.1e4              datasheet (Kx = Ky; Ktx = Kty)
+ATI Mini45 F/T sensor           ~1e7 - 1e8    ~1e4               datasheet, order of magnitude
+                                                                 only (recalled, unverified)
+KUKA LBR iiwa, position mode    2e4 - 2e5     5e2 - 3e3          estimate: joint stiffness
+                                                                 ~1e4 N·m/rad (harmonic drive,
+                                                                 torque sensor) over levers of
+                                                                 0.4 - 0.8 m, joints in series
+parallel gripper, friction      1e4 - 1e5     1e1 - 3e2          estimate: elastomer or plastic
+pads on the peg's top                                            pads ~1e5 N/m; a grasp ~10 mm
+                                                                 tall resists tilt only over
+                                                                 its pads' height
+LBR + Gamma + gripper,          ~2e4 - 5e4    ~1e1 - 3e2         the series sum; the grasp
+in series                                                        dominates the tilt, arm and
+                                                                 grasp share the lateral part
+==============================  ============  =================  ===============================
+
+:data:`LBR_GAMMA_GRIPPER` is the middle of the last row, ``Holder(2.5e4, 30)`` (``Holder.series``
+of :data:`LBR_IIWA_ESTIMATE`, :data:`ATI_GAMMA` and :data:`PARALLEL_GRIPPER_ESTIMATE`): a 10 N
+side load deflects G by 0.4 mm and, applied 40 mm below G, tilts the peg by 0.8°, far more than a
+10 µm clearance. A metal V-groove grasp is one to two decades stiffer in tilt. A real arm's
+compliance is a full 6×6 matrix (a side force at G also turns the flange through the big joints);
+the diagonal model keeps the two terms a push test measures.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+from typing import NamedTuple
+
+import numba
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from fbcc_ros.core import contact as contact_mod
+from fbcc_ros.core.contact import ContactBatch, FloatArray, as_rows
+from fbcc_ros.core.errors import ConfigError, InputError
+
+#: A contact response: features (N, 5) -> wrench on the hole (N, 5), e.g. ContactBatch.response.
+Response = Callable[[FloatArray], FloatArray]
+BoolArray = NDArray[np.bool_]
+
+#: Forward-difference steps of the Jacobian: u_x, u_y [m], phi_x, phi_y [rad]. Small against the
+#: microns the peg moves, large against rounding (3e9 N/m × 1e-9 m = 3 N vs ~1e-8 N noise).
+_FD_STEP = np.array([1e-9, 1e-9, 1e-7, 1e-7])
+#: Sufficient decrease of the squared scaled residual for a step to be accepted (Armijo).
+_ARMIJO = 1e-4
+#: A step that leaves more than this fraction of the squared residual asks for a fresh Jacobian.
+_SLOW = 0.25
+#: Smallest step fraction of the line search: below it a row gives up for this call.
+_T_MIN = 1e-10
+
+
+def _stiffness(field: str, value: object) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)):
+        raise ConfigError(field, value, "a finite stiffness > 0 (SI units)")
+    v = float(value)
+    if not (math.isfinite(v) and v > 0.0):
+        raise ConfigError(field, value, "a finite stiffness > 0 (SI units)")
+    return v
+
+
+@dataclasses.dataclass(frozen=True)
+class Holder:
+    """The holder's stiffness at the grip point (see the module doc).
+
+    Attributes:
+        lateral: Stiffness of the grip point along x and y of {H} [N/m], finite and > 0.
+        angular: Stiffness of the peg's tilt about x and y through the grip point [N·m/rad],
+            finite and > 0.
+
+    Axially (depth) and about z the holder is rigid: the insertion is position controlled.
+    :meth:`rigid` (or ``None`` wherever a holder is taken) is the rigid holder of the original
+    plant.
+    """
+
+    lateral: float
+    angular: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "lateral", _stiffness("holder.lateral", self.lateral))
+        object.__setattr__(self, "angular", _stiffness("holder.angular", self.angular))
+
+    @classmethod
+    def rigid(cls) -> Holder:
+        """The rigid holder (infinite stiffness; the only instance that is not finite)."""
+        h = object.__new__(cls)
+        object.__setattr__(h, "lateral", math.inf)
+        object.__setattr__(h, "angular", math.inf)
+        return h
+
+    @property
+    def is_rigid(self) -> bool:
+        return math.isinf(self.lateral)
+
+    @classmethod
+    def series(cls, *parts: Holder) -> Holder:
+        """Springs in series, each referred to the grip point: ``1/k = sum 1/k_i`` per axis."""
+        if not parts:
+            raise ConfigError("holder.parts", [], "at least one Holder")
+        soft = [p for p in parts if not p.is_rigid]
+        if not soft:
+            return cls.rigid()
+        return cls(
+            1.0 / sum(1.0 / p.lateral for p in soft), 1.0 / sum(1.0 / p.angular for p in soft)
+        )
+
+
+#: ATI Gamma F/T sensor (datasheet calculated stiffness, as recalled: Kx = Ky, Ktx = Kty).
+ATI_GAMMA = Holder(9.1e6, 1.1e4)
+#: KUKA LBR iiwa in position control, referred to a grip point ~0.1 m past the flange (estimate).
+LBR_IIWA_ESTIMATE = Holder(5e4, 1e3)
+#: A parallel gripper with friction pads holding the peg's top (estimate).
+PARALLEL_GRIPPER_ESTIMATE = Holder(5e4, 30.0)
+#: The three in series, rounded: ~2.5e4 N/m and ~30 N·m/rad (the grasp dominates the tilt).
+LBR_GAMMA_GRIPPER = Holder(2.5e4, 30.0)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Grip:
+    """Where the grip point is, relative to the point the response's moments are taken at.
+
+    Attributes:
+        peg_length: Tip-to-top length of the peg [m], scalar or one per row: G is the top face.
+        acting_depth: Depth of the acting point below the hole's top face, ``L + H`` [m] (the
+            ``hole_bottom`` acting point, on the hole axis), scalar or per row; ``None`` when the
+            response's moments are already taken at the peg's top (``peg_top``).
+        peg_radius: r [m], for the ``r sin(theta)`` term of the grip height (second order;
+            0 drops it).
+    """
+
+    peg_length: float | FloatArray
+    acting_depth: float | FloatArray | None
+    peg_radius: float | FloatArray = 0.0
+
+    @classmethod
+    def of(cls, contact: ContactBatch) -> Grip:
+        """The grip of a contact batch: its peg lengths, radii and acting point."""
+        table = contact.table
+        depth = None if contact.peg_top else table[4] + table[5]  # L + H
+        return cls(table[6].copy(), depth, table[1].copy())
+
+
+class Equilibrium(NamedTuple):
+    """The solved equilibrium, per row.
+
+    Attributes:
+        features: The peg's actual features ``x_robot + delta`` (N, 5).
+        wrench: The contact response at those features (N, 5), moments at the contact's own
+            acting point (what the rigid plant reported).
+        delta: ``(ddx, ddy, 0, dtheta_x, dtheta_y)`` (N, 5), see the module doc.
+        converged: Whether the force balance is within the tolerances (N,).
+    """
+
+    features: FloatArray
+    wrench: FloatArray
+    delta: FloatArray
+    converged: BoolArray
+
+
+def _contact_of(response: Response | ContactBatch) -> ContactBatch | None:
+    """The ContactBatch behind a response (the batch itself or its bound ``response``)."""
+    if isinstance(response, ContactBatch):
+        return response
+    owner = getattr(response, "__self__", None)
+    if isinstance(owner, ContactBatch) and getattr(response, "__func__", None) is (
+        ContactBatch.response
+    ):
+        return owner
+    return None
+
+
+def _per_row(value: float | FloatArray, n: int, field: str) -> FloatArray:
+    a = np.asarray(value, dtype=float)
+    if a.ndim == 0 or a.shape == (1,):
+        return np.full(n, float(a.reshape(-1)[0]))
+    if a.shape != (n,):
+        raise InputError(field, f"array of shape {a.shape}", f"a scalar or shape ({n},)")
+    return a
+
+
+def grip_moments(
+    features: FloatArray, wrench: FloatArray, grip: Grip
+) -> tuple[FloatArray, FloatArray]:
+    """``(M_G,x, M_G,y)``: the moments of the peg-on-hole wrench about the grip point G (N,).
+
+    ``features`` and ``wrench`` are (N, 5) rows, the wrench's moments at the acting point of
+    ``grip``; see the module doc for the formula.
+    """
+    x = np.asarray(features, dtype=float)
+    w = np.asarray(wrench, dtype=float)
+    n = len(x)
+    if grip.acting_depth is None:  # the moments are already at the peg top
+        return w[:, 3].copy(), w[:, 4].copy()
+    pl = _per_row(grip.peg_length, n, "grip.peg_length")
+    depth = _per_row(grip.acting_depth, n, "grip.acting_depth")
+    rad = _per_row(grip.peg_radius, n, "grip.peg_radius")
+    tx, ty = np.tan(x[:, 4]), -np.tan(x[:, 3])
+    tan2 = tx * tx + ty * ty
+    cos_t = 1.0 / np.sqrt(1.0 + tan2)
+    sin_t = np.sqrt(tan2) * cos_t
+    l = x[:, 2]
+    along = (pl - 0.5 * l) * cos_t
+    x_g, y_g = x[:, 0] + along * tx, x[:, 1] + along * ty
+    h = (rad * sin_t + pl - l) * cos_t + depth  # z_G - z_A
+    return w[:, 3] + y_g * w[:, 2] + h * w[:, 1], w[:, 4] - h * w[:, 0] - x_g * w[:, 2]
+
+
+def _check_options(max_iter: int, force_tol: float, moment_tol: float) -> None:
+    if isinstance(max_iter, bool) or not isinstance(max_iter, int) or max_iter < 1:
+        raise ConfigError("holder.max_iter", max_iter, "an integer >= 1")
+    for field, v in (("holder.force_tol", force_tol), ("holder.moment_tol", moment_tol)):
+        ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
+        if not (ok and v > 0):
+            raise ConfigError(field, v, "a finite tolerance > 0 (N or N·m)")
+
+
+class HolderSolver:
+    """The quasi-static equilibrium of a holder in series with the contact, warm started.
+
+    Keeps each row's deflection and Jacobian between calls of :meth:`step` and starts each step
+    from the last two solutions extrapolated linearly; a change in the number of rows starts
+    afresh (so does :meth:`reset`).
+
+    Args:
+        holder: The holder; ``None`` or :meth:`Holder.rigid` is rigid (delta = 0, one call).
+        grip: Where the response's moments are taken, for a response callable that is no
+            ContactBatch (a ContactBatch or its bound ``response`` always uses
+            :meth:`Grip.of` itself).
+        max_iter: Newton iterations per step and row (each costs one evaluation of the row,
+            plus four where its Jacobian is refreshed).
+        force_tol: Force balance ``|k_l u + F|`` that counts as converged [N].
+        moment_tol: Moment balance ``|k_a phi + M_G|`` that counts as converged [N·m].
+        extrapolate: Start from ``2 q_k - q_{k-1}`` (else from the last solution ``q_k``).
+
+    After each step, :attr:`evaluations` is the number of contact evaluations of single rows
+    it took (N for a rigid holder; the numpy iteration of a plain callable evaluates all N rows
+    per call) and :attr:`iterations` the most Newton iterations of a row.
+    """
+
+    def __init__(
+        self,
+        holder: Holder | None,
+        grip: Grip | None = None,
+        *,
+        max_iter: int = 12,
+        force_tol: float = 1e-3,
+        moment_tol: float = 1e-5,
+        extrapolate: bool = True,
+    ) -> None:
+        if holder is not None and not isinstance(holder, Holder):
+            raise ConfigError("holder", holder, "a Holder or None (rigid)")
+        _check_options(max_iter, force_tol, moment_tol)
+        self.holder = holder if holder is not None else Holder.rigid()
+        self.grip = grip
+        self.max_iter = max_iter
+        self.extrapolate = extrapolate
+        k = self.holder
+        self._tol = np.array([force_tol, force_tol, moment_tol, moment_tol])
+        self._k = np.array([k.lateral, k.lateral, k.angular, k.angular])
+        self._q: FloatArray | None = None  # (N, 4) u_x, u_y, phi_x, phi_y of the last step
+        self._q_prev: FloatArray | None = None  # and of the step before
+        self._jac: FloatArray | None = None  # (N, 4, 4) in scaled units
+        self._have: BoolArray | None = None  # whether a row's Jacobian is usable
+        self.evaluations = 0
+        self.iterations = 0
+
+    def reset(self) -> None:
+        """Forget the warm start (deflections and Jacobians)."""
+        self._q = self._q_prev = self._jac = self._have = None
+
+    def step(
+        self,
+        x_robot: ArrayLike,
+        response: Response | ContactBatch,
+        *,
+        delta0: ArrayLike | None = None,
+    ) -> Equilibrium:
+        """Solve one equilibrium.
+
+        Args:
+            x_robot: The peg's features if the holder were rigid (the robot's belief plus the
+                hole's deviation), (N, 5) or (5,) [m, rad]. Depths must suit ``response``
+                (the simulator clamps them at 0).
+            response: The contact: a ContactBatch, its ``response``, or any callable
+                ``features (N, 5) -> wrench (N, 5)`` (then ``grip`` must be given).
+            delta0: An initial feature delta (N, 5) to start from instead of the warm start
+                (its l column is ignored).
+
+        Returns:
+            :class:`Equilibrium` (features, wrench, delta, converged), rows as given.
+        """
+        xr, single = as_rows(x_robot, "x_robot", "features (dx, dy, l, theta_x, theta_y)")
+        n = len(xr)
+        contact = _contact_of(response)
+        if contact is not None and len(contact) not in (1, n):
+            raise InputError("x_robot", f"{n} rows", f"{len(contact)} rows, one per pair")
+        if self.holder.is_rigid:
+            w = contact.response(xr) if contact is not None else _call(response, xr)  # type: ignore[arg-type]
+            self.evaluations, self.iterations = n, 0
+            out = Equilibrium(xr.copy(), w, np.zeros_like(xr), np.ones(n, dtype=bool))
+            return _squeeze(out) if single else out
+        grip = Grip.of(contact) if contact is not None else self.grip
+        if grip is None:
+            raise ConfigError("grip", None, "a Grip for a response that is no ContactBatch")
+        pl = _per_row(grip.peg_length, n, "grip.peg_length")
+        h = pl - 0.5 * xr[:, 2]  # from the feature point up to the grip point, along the axis
+        q = self._start(n, h, delta0)
+        # the fallback start where q lands off the wall: the last solution (then q = 0)
+        back = self._q.copy() if self._q is not None else np.zeros((n, 4))
+        if contact is not None:
+            x, w, conv, evals, iters = self._compiled(xr, h, q, back, contact)
+        else:
+            x, w, conv, evals, iters = self._batched(xr, h, q, back, response, grip)  # type: ignore[arg-type]
+        self._q_prev, self._q = self._q, q
+        self.evaluations, self.iterations = evals, iters
+        out = Equilibrium(x, w, x - xr, conv)
+        return _squeeze(out) if single else out
+
+    def _start(self, n: int, h: FloatArray, delta0: ArrayLike | None) -> FloatArray:
+        """The starting deflection: delta0, else the warm start, else none."""
+        if self._q is None or len(self._q) != n:
+            self.reset()
+            self._jac = np.tile(np.eye(4), (n, 1, 1))
+            self._have = np.zeros(n, dtype=bool)
+            q0 = np.zeros((n, 4))
+        elif self.extrapolate and self._q_prev is not None:
+            q0 = 2.0 * self._q - self._q_prev
+        else:
+            q0 = self._q.copy()
+        if delta0 is not None:
+            d, _ = as_rows(delta0, "delta0", "feature deltas")
+            if len(d) != n:
+                raise InputError("delta0", f"{len(d)} rows", f"{n} rows, as x_robot")
+            q0 = np.column_stack([d[:, 0] + h * d[:, 4], d[:, 1] - h * d[:, 3], d[:, 3:5]])
+        return q0
+
+    def _compiled(
+        self, xr: FloatArray, h: FloatArray, q: FloatArray, back: FloatArray, contact: ContactBatch
+    ) -> tuple[FloatArray, FloatArray, BoolArray, int, int]:
+        assert self._jac is not None and self._have is not None
+        n = len(xr)
+        x, w = np.empty((n, 5)), np.empty((n, 5))
+        conv = np.empty(n, dtype=np.bool_)
+        evals, iters = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+        ca, sa = contact_mod._angle_table(contact.n_angles)
+        _solve_rows_kernel(
+            np.ascontiguousarray(xr), h, q, back, self._jac, self._have, contact.table,
+            contact.peg_top, ca, sa, contact_mod._GL_NODES, contact_mod._GL_WEIGHTS,
+            self._k, self._tol, self.max_iter, _FD_STEP, x, w, conv, evals, iters,
+        )  # fmt: skip
+        return x, w, conv, int(evals.sum()), int(iters.max(initial=0))
+
+    def _batched(
+        self,
+        xr: FloatArray,
+        h: FloatArray,
+        q: FloatArray,
+        back: FloatArray,
+        response: Response,
+        grip: Grip,
+    ) -> tuple[FloatArray, FloatArray, BoolArray, int, int]:
+        """The iteration of :func:`_solve_rows_kernel`, batched in numpy for any callable."""
+        assert self._jac is not None and self._have is not None
+        jac, have = self._jac, self._have
+        n = len(xr)
+        k, tol = self._k, self._tol
+        scale = tol / k  # physical units per scaled unit
+
+        def features(qq: FloatArray) -> FloatArray:
+            x = xr.copy()
+            x[:, 0] += qq[:, 0] - h * qq[:, 3]
+            x[:, 1] += qq[:, 1] + h * qq[:, 2]
+            x[:, 2:] += np.column_stack([np.zeros(n), qq[:, 2:]])
+            return x
+
+        def residual(qq: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+            x = features(qq)
+            w = _call(response, x)
+            mgx, mgy = grip_moments(x, w, grip)
+            load = np.column_stack([w[:, 0], w[:, 1], mgx, mgy])
+            return x, w, (k * qq + load) / tol
+
+        x, w, r = residual(q)
+        evals = n
+        for fallback in (back, np.zeros((n, 4))):  # off the wall: fall back
+            off = _off_wall(q, w)
+            if not off.any():
+                break
+            q[off] = fallback[off]
+            x2, w2, r2 = residual(q)
+            evals += n
+            x[off], w[off], r[off] = x2[off], w2[off], r2[off]
+        merit = np.einsum("ij,ij->i", r, r)
+        conv = np.abs(r).max(axis=1) <= 1.0
+        t = np.ones(n)
+        fresh = np.zeros(n, dtype=bool)  # the Jacobian was evaluated at the current point
+        gave_up = np.zeros(n, dtype=bool)
+        iters = np.zeros(n, dtype=np.int64)
+        for _ in range(self.max_iter):
+            act = ~conv & ~gave_up
+            if not act.any():
+                break
+            iters[act] += 1
+            need = act & ~have
+            if need.any():
+                for j in range(4):
+                    qj = q.copy()
+                    qj[:, j] += _FD_STEP[j]
+                    rj = residual(qj)[2]
+                    jac[need, :, j] = (rj[need] - r[need]) / (_FD_STEP[j] / scale[j])
+                evals += 4 * n
+                have[need] = fresh[need] = True
+            step = np.zeros((n, 4))
+            step[act] = _solve4_rows(jac[act], -r[act])
+            qt = q + t[:, None] * step * scale
+            xt, wt, rt = residual(qt)
+            evals += n
+            mt = np.einsum("ij,ij->i", rt, rt)
+            acc = act & (mt < (1.0 - _ARMIJO * t) * merit)  # False for NaN
+            rej = act & ~acc
+            if acc.any():
+                dz = (qt[acc] - q[acc]) / scale
+                jac[acc] = _broyden(jac[acc], dz, rt[acc] - r[acc])
+                have[acc & (mt > _SLOW * merit)] = False  # slow: refresh next time
+                q[acc], x[acc], w[acc] = qt[acc], xt[acc], wt[acc]
+                r[acc], merit[acc] = rt[acc], mt[acc]
+                t[acc] = 1.0
+                fresh[acc] = False
+            # a fresh Jacobian's step failed: halve it; a stale one: refresh the Jacobian
+            damp = rej & fresh
+            t[damp] *= 0.5
+            gave_up |= damp & (t < _T_MIN)
+            have[rej & ~fresh] = False
+            conv = np.abs(r).max(axis=1) <= 1.0
+        return x, w, conv, evals, int(iters.max(initial=0))
+
+
+def _off_wall(q: FloatArray, w: FloatArray) -> BoolArray:
+    """Rows that touch nothing (an exactly zero wrench) with the holder deflected: never an
+    equilibrium, and a region where the Jacobian (the holder alone) knows nothing of the wall."""
+    return np.asarray((w == 0.0).all(axis=1) & (q != 0.0).any(axis=1))
+
+
+def _call(response: Response, x: FloatArray) -> FloatArray:
+    w = np.asarray(response(x), dtype=float)
+    if w.shape != x.shape:
+        raise InputError("response", f"an array of shape {w.shape}", f"shape {x.shape}")
+    return w
+
+
+def _solve4_rows(jac: FloatArray, b: FloatArray) -> FloatArray:
+    """Solve each row's 4×4 system; a singular or non-finite row takes the step ``b`` (the
+    Newton step of the holder alone: J = I in scaled units)."""
+    s = np.empty_like(b)
+    for i in range(len(b)):
+        try:
+            s[i] = np.linalg.solve(jac[i], b[i])
+        except np.linalg.LinAlgError:
+            s[i] = b[i]
+    bad = ~np.isfinite(s).all(axis=1)
+    s[bad] = b[bad]
+    return s
+
+
+def _broyden(jac: FloatArray, dz: FloatArray, dr: FloatArray) -> FloatArray:
+    """Broyden's ("good") rank-one update per row: J += (dr - J dz) dz^T / (dz^T dz)."""
+    den = np.einsum("ij,ij->i", dz, dz)
+    resid = dr - np.einsum("ijk,ik->ij", jac, dz)
+    upd = resid[:, :, None] * dz[:, None, :] / np.where(den > 0, den, np.inf)[:, None, None]
+    out = jac + upd
+    bad = ~np.isfinite(out).all(axis=(1, 2))
+    out[bad] = jac[bad]
+    return np.asarray(out, dtype=float)
+
+
+def _squeeze(e: Equilibrium) -> Equilibrium:
+    return Equilibrium(e.features[0], e.wrench[0], e.delta[0], e.converged.reshape(()))
+
+
+#: The stiffest stage of :func:`solve`'s continuation, as a multiple of the holder's stiffness.
+CONTINUATION_SPAN = 1e3
+
+
+def solve(
+    holder: Holder | None,
+    x_robot: ArrayLike,
+    response: Response | ContactBatch,
+    grip: Grip | None = None,
+    *,
+    delta0: ArrayLike | None = None,
+    max_iter: int = 20,
+    force_tol: float = 1e-3,
+    moment_tol: float = 1e-5,
+    continuation: int = 8,
+) -> Equilibrium:
+    """One equilibrium from ``delta0`` (default: the rigid pose), for a cold start.
+
+    Rows that this leaves unconverged are solved again by continuation: ``continuation + 1``
+    stages of a holder softened geometrically from :data:`CONTINUATION_SPAN` times stiffer
+    (close to the rigid pose, where the contact's Jacobian is well sampled) down to the holder
+    itself, each started from the last stage's solution (0: no second attempt). A cold start
+    deep in the wall against a soft grasp (a stiff edge contact, whose equilibrium lies within
+    a fraction of a nanometre of the contact's edge) can otherwise stall there. Other arguments
+    as :class:`HolderSolver`; in a loop keep a :class:`HolderSolver` instead.
+    """
+    if isinstance(continuation, bool) or not isinstance(continuation, int) or continuation < 0:
+        raise ConfigError("holder.continuation", continuation, "an integer >= 0")
+    options = {"max_iter": max_iter, "force_tol": force_tol, "moment_tol": moment_tol}
+    eq = HolderSolver(holder, grip, **options).step(x_robot, response, delta0=delta0)  # type: ignore[arg-type]
+    if continuation == 0 or holder is None or bool(np.all(eq.converged)):
+        return eq
+    xr, single = as_rows(x_robot, "x_robot", "features (dx, dy, l, theta_x, theta_y)")
+    bad = np.flatnonzero(~np.atleast_1d(eq.converged))
+    contact = _contact_of(response)
+    if contact is not None:  # only the rows that failed
+        rows, path_response = bad, contact
+        if len(contact) > 1:
+            table = np.ascontiguousarray(contact.table[:, bad])
+            path_response = ContactBatch(table, contact.peg_top, contact.n_angles)
+    else:  # a plain callable takes every row
+        rows, path_response = np.arange(len(xr)), response  # type: ignore[assignment]
+    stage_delta = None
+    for j in range(continuation + 1):
+        a = CONTINUATION_SPAN ** ((continuation - j) / continuation)
+        stage = Holder(holder.lateral * a, holder.angular * a)
+        last = HolderSolver(stage, grip, **options).step(  # type: ignore[arg-type]
+            xr[rows], path_response, delta0=stage_delta
+        )
+        stage_delta = last.delta
+    pick = np.isin(rows, bad)  # the path's rows that replace a failed one
+    merged = []
+    for a_eq, b in zip(eq, last, strict=True):
+        c = np.array(a_eq, ndmin=2 if a_eq.dtype != np.bool_ else 1)
+        c[rows[pick]] = b[pick]
+        merged.append(c)
+    result = Equilibrium(merged[0], merged[1], merged[2], merged[3])
+    return _squeeze(result) if single else result
+
+
+# -- the compiled iteration ----------------------------------------------------------------------
+# One row at a time, the same steps as HolderSolver._batched: numpy's per-call overhead over 4x4
+# blocks of a 128-row batch would cost several times the contact kernel itself.
+
+
+@numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
+def _row_residual(
+    xr: FloatArray, h: float, q: FloatArray, tab: FloatArray, peg_top: bool,
+    ca: FloatArray, sa: FloatArray, gl_x: FloatArray, gl_w: FloatArray,
+    k: FloatArray, tol: FloatArray, fbuf: FloatArray, wbuf: FloatArray, r: FloatArray,
+) -> float:  # fmt: skip
+    """Features of deflection q into fbuf[0], wrench into wbuf[0], scaled residual into r;
+    returns the squared residual."""
+    fbuf[0, 0] = xr[0] + q[0] - h * q[3]
+    fbuf[0, 1] = xr[1] + q[1] + h * q[2]
+    fbuf[0, 2] = xr[2]
+    fbuf[0, 3] = xr[3] + q[2]
+    fbuf[0, 4] = xr[4] + q[3]
+    contact_mod._response_kernel(fbuf, tab, peg_top, ca, sa, gl_x, gl_w, wbuf)
+    fx, fy, fz, mx, my = wbuf[0, 0], wbuf[0, 1], wbuf[0, 2], wbuf[0, 3], wbuf[0, 4]
+    if not peg_top:  # moments from (0, 0, -(L + H)) to the grip point (module doc)
+        pl, rad, depth = tab[6, 0], tab[1, 0], tab[4, 0] + tab[5, 0]
+        tx, ty = math.tan(fbuf[0, 4]), -math.tan(fbuf[0, 3])
+        tan2 = tx * tx + ty * ty
+        cos_t = 1.0 / math.sqrt(1.0 + tan2)
+        sin_t = math.sqrt(tan2) * cos_t
+        along = (pl - 0.5 * xr[2]) * cos_t
+        x_g, y_g = fbuf[0, 0] + along * tx, fbuf[0, 1] + along * ty
+        hz = (rad * sin_t + pl - xr[2]) * cos_t + depth
+        mx, my = mx + y_g * fz + hz * fy, my - hz * fx - x_g * fz
+    r[0] = (k[0] * q[0] + fx) / tol[0]
+    r[1] = (k[1] * q[1] + fy) / tol[1]
+    r[2] = (k[2] * q[2] + mx) / tol[2]
+    r[3] = (k[3] * q[3] + my) / tol[3]
+    return float(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3])
+
+
+@numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
+def _touches_nothing(wbuf: FloatArray) -> bool:
+    """Whether the wrench in wbuf[0] is exactly zero (the kernel's "no contact")."""
+    for m in range(5):
+        if wbuf[0, m] != 0.0:
+            return False
+    return True
+
+
+@numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
+def _is_off_wall(q: FloatArray, wbuf: FloatArray) -> bool:
+    """See :func:`_off_wall` (one row; the wrench in wbuf[0])."""
+    if not _touches_nothing(wbuf):
+        return False
+    return bool(q[0] != 0.0 or q[1] != 0.0 or q[2] != 0.0 or q[3] != 0.0)
+
+
+@numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
+def _solve4(a_in: FloatArray, b: FloatArray, a: FloatArray, out: FloatArray) -> None:
+    """out = a_in^-1 b by Gaussian elimination with partial pivoting (a: 4x4 scratch); a
+    singular or non-finite system gives out = b."""
+    for i in range(4):
+        out[i] = b[i]
+        for j in range(4):
+            a[i, j] = a_in[i, j]
+    for c in range(4):
+        p = c
+        for i in range(c + 1, 4):
+            if abs(a[i, c]) > abs(a[p, c]):
+                p = i
+        piv = a[p, c]
+        if not (abs(piv) > 1e-300 and math.isfinite(piv)):
+            for i in range(4):
+                out[i] = b[i]
+            return
+        if p != c:
+            for j in range(4):
+                a[c, j], a[p, j] = a[p, j], a[c, j]
+            out[c], out[p] = out[p], out[c]
+        for i in range(c + 1, 4):
+            f = a[i, c] / piv
+            for j in range(c, 4):
+                a[i, j] -= f * a[c, j]
+            out[i] -= f * out[c]
+    for c in range(3, -1, -1):
+        s = out[c]
+        for j in range(c + 1, 4):
+            s -= a[c, j] * out[j]
+        out[c] = s / a[c, c]
+    for i in range(4):
+        if not math.isfinite(out[i]):
+            for m in range(4):
+                out[m] = b[m]
+            return
+
+
+@numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
+def _solve_rows_kernel(
+    xr: FloatArray, h: FloatArray, q: FloatArray, back: FloatArray, jac: FloatArray,
+    have: BoolArray, table: FloatArray, peg_top: bool, ca: FloatArray, sa: FloatArray,
+    gl_x: FloatArray, gl_w: FloatArray, k: FloatArray, tol: FloatArray, max_iter: int,
+    fd: FloatArray, x_out: FloatArray, w_out: FloatArray, conv: BoolArray,
+    evals: NDArray[np.int64], iters: NDArray[np.int64],
+) -> None:  # fmt: skip
+    n = xr.shape[0]
+    tab = np.empty((7, 1))
+    fbuf, wbuf = np.empty((1, 5)), np.empty((1, 5))
+    fbuf_t, wbuf_t = np.empty((1, 5)), np.empty((1, 5))
+    r, rt, qt, s, neg = np.empty(4), np.empty(4), np.empty(4), np.empty(4), np.empty(4)
+    dz, dr, jdz, scratch = np.empty(4), np.empty(4), np.empty(4), np.empty((4, 4))
+    for i in range(n):
+        c = i if table.shape[1] > 1 else 0
+        for m in range(7):
+            tab[m, 0] = table[m, c]
+        qi, ji = q[i], jac[i]
+        merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, gl_x, gl_w, k, tol,
+                              fbuf, wbuf, r)  # fmt: skip
+        n_eval = 1
+        for fallback in range(2):  # off the wall: start from the last solution, then from 0
+            if not _is_off_wall(qi, wbuf):
+                break
+            for m in range(4):
+                qi[m] = back[i, m] if fallback == 0 else 0.0
+            merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, gl_x, gl_w, k, tol,
+                                  fbuf, wbuf, r)  # fmt: skip
+            n_eval += 1
+        it, t, fresh = 0, 1.0, False
+        done = max(abs(r[0]), abs(r[1]), abs(r[2]), abs(r[3])) <= 1.0
+        while not done and it < max_iter:
+            it += 1
+            if not have[i]:  # forward differences in scaled units
+                for j in range(4):
+                    for m in range(4):
+                        qt[m] = qi[m]
+                    qt[j] += fd[j]
+                    _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, gl_x, gl_w, k, tol,
+                                  fbuf_t, wbuf_t, rt)  # fmt: skip
+                    for m in range(4):
+                        ji[m, j] = (rt[m] - r[m]) / (fd[j] * k[j] / tol[j])
+                n_eval += 4
+                have[i] = fresh = True
+            for m in range(4):
+                neg[m] = -r[m]
+            _solve4(ji, neg, scratch, s)
+            for m in range(4):
+                qt[m] = qi[m] + t * s[m] * tol[m] / k[m]
+            mt = _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, gl_x, gl_w, k, tol,
+                               fbuf_t, wbuf_t, rt)  # fmt: skip
+            n_eval += 1
+            if mt < (1.0 - _ARMIJO * t) * merit:  # False for NaN
+                den = 0.0
+                for m in range(4):
+                    dz[m] = (qt[m] - qi[m]) * k[m] / tol[m]
+                    dr[m] = rt[m] - r[m]
+                    den += dz[m] * dz[m]
+                if den > 0.0:  # Broyden's rank-one update
+                    for m in range(4):
+                        jdz[m] = 0.0
+                        for j in range(4):
+                            jdz[m] += ji[m, j] * dz[j]
+                    for m in range(4):
+                        for j in range(4):
+                            v = ji[m, j] + (dr[m] - jdz[m]) * dz[j] / den
+                            if math.isfinite(v):
+                                ji[m, j] = v
+                if mt > _SLOW * merit:
+                    have[i] = False
+                for m in range(4):
+                    qi[m], r[m] = qt[m], rt[m]
+                for m in range(5):
+                    fbuf[0, m], wbuf[0, m] = fbuf_t[0, m], wbuf_t[0, m]
+                merit, t, fresh = mt, 1.0, False
+            elif fresh:  # a fresh Jacobian's step failed: halve it
+                t *= 0.5
+                if t < _T_MIN:
+                    break
+            else:  # a stale Jacobian's: refresh it
+                have[i] = False
+            done = max(abs(r[0]), abs(r[1]), abs(r[2]), abs(r[3])) <= 1.0
+        for m in range(5):
+            x_out[i, m], w_out[i, m] = fbuf[0, m], wbuf[0, m]
+        conv[i], evals[i], iters[i] = done, n_eval, it
