@@ -35,7 +35,8 @@ import scipy.linalg
 from numpy.typing import ArrayLike
 
 from fbcc_ros.core.contact import FloatArray, PegHole, as_rows
-from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.errors import ConfigError, InputError, require_number
+from fbcc_ros.core.filters import second_order_row
 from fbcc_ros.core.robust import RobustFbcc, RobustParams
 from fbcc_ros.core.segmentation import direct_row
 
@@ -92,11 +93,7 @@ class ComplianceParams:
 
     def __post_init__(self) -> None:
         for name in self.NAMES:
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ConfigError(name, value, "a number")
-            if not math.isfinite(value):
-                raise ConfigError(name, value, "a finite number")
+            require_number(name, getattr(self, name))
         for name in ("M_dp", "K_dp", "M_do", "K_do", "M_dl", "K_dl", "F_ext_limit"):
             if getattr(self, name) <= 0:
                 raise ConfigError(name, getattr(self, name), "> 0")
@@ -186,7 +183,7 @@ class ComplianceFilter:
         x, v = self._x.copy(), self._v.copy()
         u = np.ascontiguousarray(u, dtype=float)
         for i in range(len(x)):
-            _filter_row(c, x[i], v[i], u[i])
+            second_order_row(c, x[i], v[i], u[i])
         self._x, self._v = x, v
         return x
 
@@ -226,15 +223,6 @@ class ComplianceFilter:
         coeffs = np.vstack((phi, gam))
         self._coeffs[dt] = coeffs
         return coeffs
-
-
-@numba.njit(cache=True)  # type: ignore[misc]
-def _filter_row(c: FloatArray, x: FloatArray, v: FloatArray, u: FloatArray) -> None:
-    """One trial's five filters, in place: [x, v](k+1) = Phi [x, v](k) + Gamma u(k)."""
-    for j in range(5):
-        xj, vj = x[j], v[j]
-        x[j] = c[0, j] * xj + c[1, j] * vj + c[4, j] * u[j]
-        v[j] = c[2, j] * xj + c[3, j] * vj + c[5, j] * u[j]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -395,7 +383,7 @@ def _law_rows(
             direct_row(w[i], depth[i], base, per_depth, hole_depth, hole_radius, u)
         elif law == _ADMITTANCE:  # the raw wrench, A = I: My drives theta_y
             u[:] = w[i]
-        _filter_row(c, x_d[i], v_d[i], u)  # eq. (27): M x_d'' + D x_d' + K x_d = u
+        second_order_row(c, x_d[i], v_d[i], u)  # eq. (27): M x_d'' + D x_d' + K x_d = u
         if running:
             elapsed[i] += dt
         # l_rfr: a ramp at the insertion speed to the final depth L

@@ -7,6 +7,7 @@ Physical outcomes (no contact, jamming, a force limit) are states, never excepti
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 
@@ -41,3 +42,13 @@ class InputError(FbccError, ValueError):
         self.value = value
         self.allowed = allowed
         super().__init__(f"{field}={value!r} is not allowed: expected {allowed}")
+
+
+def require_number(field: str, value: Any, *, positive: bool = False) -> float:
+    """``value`` as a finite float (> 0 with ``positive``), else a :class:`ConfigError` naming
+    ``field``; booleans are refused (YAML's ``yes`` is no gain)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(field, value, "a number")
+    if not math.isfinite(value) or (positive and not value > 0):
+        raise ConfigError(field, value, "a finite number > 0" if positive else "a finite number")
+    return float(value)

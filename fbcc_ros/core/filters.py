@@ -1,4 +1,6 @@
-"""Optional conditioning of the compensated wrench: a first-order low-pass and a dead band.
+"""Filters: the optional conditioning of the compensated wrench (a first-order low-pass and a
+dead band), and the per-sample step of the control laws' second-order filters
+(:func:`second_order_row`).
 
 Both are off by default. The controller's second-order compliance (M, D, K of Table I) already
 filters the response, and a low-pass inside the force loop adds phase lag the user should choose
@@ -9,6 +11,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -57,3 +60,15 @@ def dead_band(x: ArrayLike, band: ArrayLike) -> FloatArray:
     """
     arr = np.asarray(x, dtype=float)
     return np.sign(arr) * np.maximum(np.abs(arr) - np.asarray(band, dtype=float), 0.0)
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def second_order_row(c: FloatArray, x: FloatArray, v: FloatArray, u: FloatArray) -> None:
+    """One trial's five second-order filters, in place, discretised exactly for a zero-order
+    hold (``control.ComplianceFilter.discretise``, ``robust.RobustParams.filter_coefficients``):
+    ``[x, v](k+1) = Phi [x, v](k) + Gamma u(k)``, c rows Phi00, Phi01, Phi10, Phi11, Gamma0,
+    Gamma1 per column."""
+    for j in range(5):
+        xj, vj = x[j], v[j]
+        x[j] = c[0, j] * xj + c[1, j] * vj + c[4, j] * u[j]
+        v[j] = c[2, j] * xj + c[3, j] * vj + c[5, j] * u[j]

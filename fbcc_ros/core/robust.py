@@ -63,7 +63,8 @@ from numpy.typing import ArrayLike
 from fbcc_ros.core import guard as guard_mod
 from fbcc_ros.core import identification as ident
 from fbcc_ros.core.contact import FloatArray, PegHole, as_rows
-from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.errors import ConfigError, InputError, require_number
+from fbcc_ros.core.filters import second_order_row
 from fbcc_ros.core.segmentation import direct_row
 
 #: Dither frequencies of the rows dx, dy, theta_x, theta_y as fractions of the control rate
@@ -153,11 +154,7 @@ class RobustParams:
 
     def __post_init__(self) -> None:
         for name in self.POSITIVE:
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ConfigError(name, value, "a number")
-            if not (math.isfinite(value) and value > 0):
-                raise ConfigError(name, value, "a finite number > 0")
+            require_number(name, getattr(self, name), positive=True)
         noise = self.sensor_noise
         if not (
             isinstance(noise, (tuple, list))
@@ -205,7 +202,7 @@ class RobustParams:
 
     def filter_coefficients(self, dt: float) -> FloatArray:
         """H_f discretised exactly for a zero-order hold at period dt: rows Phi00, Phi01,
-        Phi10, Phi11, Gamma0, Gamma1 (the layout of ``control._filter_row``), all 5 columns
+        Phi10, Phi11, Gamma0, Gamma1 (the layout of ``filters.second_order_row``), all 5 columns
         alike."""
         w, z = self.filter_frequency, self.filter_damping
         aug = np.array([[0.0, 1.0, 0.0], [-w * w, -2 * z * w, w * w], [0.0, 0.0, 0.0]])
@@ -461,7 +458,7 @@ def _robust_rows(
         # H_f: the filtered rows ū (eq. 27 with unit DC gain)
         xf = m[_C_X : _C_X + 5]
         vf = m[_C_V : _C_V + 5]
-        _filter(c, xf, vf, u)
+        second_order_row(c, xf, vf, u)
         # oscillation guard on each filtered row: a trip backs that row's gain off, holds depth
         effort = 0.0
         j_max = 0
@@ -529,15 +526,6 @@ def _robust_rows(
         lc = min(lc, x[i, 2] + v * prm[_P_LEAD], prm[_P_DEPTH])
         m[_C_LCMD] = lc
         command[i, 2] = lc
-
-
-@numba.njit(cache=True)  # type: ignore[misc]
-def _filter(c: FloatArray, x: FloatArray, v: FloatArray, u: FloatArray) -> None:
-    """[x, v](k+1) = Phi [x, v](k) + Gamma u(k), per column (control._filter_row's layout)."""
-    for j in range(5):
-        xj, vj = x[j], v[j]
-        x[j] = c[0, j] * xj + c[1, j] * vj + c[4, j] * u[j]
-        v[j] = c[2, j] * xj + c[3, j] * vj + c[5, j] * u[j]
 
 
 def _load_step() -> None:
