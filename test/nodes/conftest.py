@@ -2,8 +2,11 @@
 for each test (PLATFORM.md), so that no test ever hears another's nodes. A latched phase from an
 earlier test's cell did reach a later one when they shared a domain.
 
-Domains: a block of 10 per test run (chosen from the pid), cycled test by test; rclpy reads
-``ROS_DOMAIN_ID`` when a context is initialised, and node subprocesses inherit it.
+Domains: a cycle of 60 per test run (one of two blocks, chosen from the pid), test by test;
+rclpy reads ``ROS_DOMAIN_ID`` when a context is initialised, and node subprocesses inherit it.
+A cycle of 10 came back to a domain within DDS's lease time on a slow machine (a few seconds a
+test, reruns included): a killed process of an earlier test was still in its graph, and the
+replay's "nobody hears" test found a subscriber there.
 """
 
 from __future__ import annotations
@@ -13,8 +16,8 @@ import os
 
 import pytest
 
-_BLOCK = 100 + (os.getpid() % 10) * 10
-_NEXT = itertools.cycle(range(_BLOCK, _BLOCK + 10))
+_BLOCK = 100 + (os.getpid() % 2) * 60
+_NEXT = itertools.cycle(range(_BLOCK, _BLOCK + 60))
 
 
 @pytest.fixture(autouse=True)
