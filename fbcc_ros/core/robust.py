@@ -83,7 +83,9 @@ class RobustParams:
             less when ``loop_delay`` leaves less than ``phase_margin`` (:func:`design`).
         loop_delay: The cell's delay from a command to its effect in the measured features
             and wrench [s]: the robot's servo and drivers, the nodes' queues; the margins budget
-            for it (a cell with more oscillates, which the guard catches).
+            for it. A lateral loop of a cell with more oscillates, which the guard catches; the
+            depth loop is not guarded, and the approach into a stiff contact is not slowed for
+            it (docs/reproduction.md).
         phase_margin: The phase margin every loop keeps with ``loop_delay`` [rad].
         filter_frequency: ω_f of the response filter H_f [rad/s].
         filter_damping: ζ of H_f.
@@ -110,6 +112,12 @@ class RobustParams:
         guard_hold: How long the depth holds after a trip [s].
         coupling_limit: How much of a plane's identified coupling the law inverts:
             |J01 J10| <= coupling_limit J00 J11 (0: the rows alone, as FBCC's A(l)).
+        plane_gate: A plane whose two rows are both inside their dead band holds (nothing to
+            sense); one that is not integrates both rows whole, so that a weak tilt row is not
+            eaten by its dead band while its plane is in contact.
+        offset_resolution, tilt_resolution: The smallest offset [m] and tilt [rad] the law
+            resolves: each row's stiffness is at least its filtered noise over this, so noise
+            alone cannot drive a row by more.
         F_ext_limit: Force limit [N] on |(Fx, Fy, Fz)|: the insertion stops for good above it
             (Algorithm 1's loop condition), as in :class:`fbcc_ros.core.control.ComplianceParams`.
     """
@@ -167,6 +175,8 @@ class RobustParams:
             raise ConfigError("loop_delay", d, "a delay in [0, 1] s")
         if not self.phase_margin < math.pi / 2:
             raise ConfigError("phase_margin", self.phase_margin, "< pi/2 rad (90°)")
+        if not isinstance(self.plane_gate, bool):
+            raise ConfigError("plane_gate", self.plane_gate, "true or false")
         c = self.coupling_limit
         if isinstance(c, bool) or not isinstance(c, (int, float)) or not 0.0 <= c < 1.0:
             raise ConfigError("coupling_limit", c, "a number in [0, 1): 0 ignores the coupling")
