@@ -228,6 +228,7 @@ def replay_offline(bag: Bag, given: dict[str, dict[str, Any]]) -> OfflineResult:
         commands.append(command.copy())
         matched.append(flow.commands.get(key, np.full(5, np.nan)))
     phase = f"{sup.phase}: {sup.reason}" if sup.reason else sup.phase
+    counts["bias_used"] = cell.compensator.bias.tolist()  # recorded, or tared from the bag
     return OfflineResult(np.array(t), np.array(commands).reshape(-1, 5),
                          np.array(matched).reshape(-1, 5), counts, phase)  # fmt: skip
 

@@ -115,6 +115,9 @@ class RobustParams:
         plane_gate: A plane whose two rows are both inside their dead band holds (nothing to
             sense); one that is not integrates both rows whole, so that a weak tilt row is not
             eaten by its dead band while its plane is in contact.
+        lateral_lead, tilt_lead: The most an offset [m] or tilt [rad] command may lead the
+            measured pose: a contact's stiffness is unknown until the motion into it is seen,
+            a ``loop_delay`` later, and an underestimate must not integrate far meanwhile.
         offset_resolution, tilt_resolution: The smallest offset [m] and tilt [rad] the law
             resolves: each row's stiffness is at least its filtered noise over this, so noise
             alone cannot drive a row by more.
@@ -150,6 +153,8 @@ class RobustParams:
     plane_gate: bool = True
     offset_resolution: float = 1e-6
     tilt_resolution: float = 2e-4
+    lateral_lead: float = 2e-5
+    tilt_lead: float = 2e-3
     F_ext_limit: float = 300.0
 
     POSITIVE: ClassVar[tuple[str, ...]] = (
@@ -157,7 +162,7 @@ class RobustParams:
         "stiffness_min", "release", "dither_force", "dither_effort", "dither_max_offset",
         "dither_max_tilt", "offset_force", "tilt_effort", "depth_bandwidth", "depth_lead",
         "fz_back_off", "guard_amplitude", "guard_backoff", "guard_hold", "F_ext_limit",
-        "offset_resolution", "tilt_resolution", "phase_margin",
+        "offset_resolution", "tilt_resolution", "phase_margin", "lateral_lead", "tilt_lead",
     )  # fmt: skip
 
     def __post_init__(self) -> None:
@@ -259,8 +264,8 @@ _N_MAIN = 43
  _P_NOISE_FZ, _P_BASE, _P_PER_DEPTH, _P_HOLE_DEPTH, _P_HOLE_RADIUS, _P_DT, _P_F0, _P_F1, _P_F2,
  _P_F3, _P_SU_X, _P_SU_Y, _P_SU_TX, _P_SU_TY, _P_MU0, _P_COUPLING, _P_GATE, _P_NFLOOR_X,
  _P_NFLOOR_Y, _P_NFLOOR_TX, _P_NFLOOR_TY, _P_G_MIN_X, _P_G_MIN_Y, _P_G_MIN_TX,
- _P_G_MIN_TY) = range(50)  # fmt: skip
-_N_PARAMS = 50
+ _P_G_MIN_TY, _P_LEAD_X, _P_LEAD_T) = range(52)  # fmt: skip
+_N_PARAMS = 52
 
 
 class RobustFbcc:
@@ -408,6 +413,7 @@ class RobustFbcc:
         resolution = np.array([p.offset_resolution] * 2 + [p.tilt_resolution] * 2)
         prm[_P_NFLOOR_X : _P_NFLOOR_TY + 1] = filtered / resolution
         prm[_P_G_MIN_X : _P_G_MIN_TY + 1] = p.guard_amplitude * filtered
+        prm[_P_LEAD_X], prm[_P_LEAD_T] = p.lateral_lead, p.tilt_lead
         self._prm[dt] = prm
         return prm
 
@@ -519,6 +525,14 @@ def _robust_rows(
                 size = prm[_P_DITH_F] if j < 2 else prm[_P_DITH_E]
                 amp = min(size / k_used, cap)
             dither = amp * math.sin(prm[_P_F0 + j] * m[_C_T])
+            # the command leads the measured pose by at most the lateral lead: what a contact
+            # of unknown stiffness may be pushed before its force is seen (loop_delay later)
+            lead = prm[_P_LEAD_X] if j < 2 else prm[_P_LEAD_T]
+            target = m[_C_RFR + f] - m[_C_INT + f]
+            if target > x[i, f] + lead:
+                m[_C_INT + f] = m[_C_RFR + f] - (x[i, f] + lead)
+            elif target < x[i, f] - lead:
+                m[_C_INT + f] = m[_C_RFR + f] - (x[i, f] - lead)
             command[i, f] = m[_C_RFR + f] - m[_C_INT + f] + dither
         # depth: hold the lateral effort at 1 with the depth loop (module doc)
         v = prm[_P_SPEED]

@@ -52,13 +52,17 @@ def test_another_law_or_gain_gives_other_commands(bag) -> None:
 
 
 def test_without_the_recorded_bias_the_tare_is_redone_from_the_bag(bag) -> None:
+    recorded = replay_offline(bag, node_parameters(BAG))
     result = replay_offline(_without(bag, "/ft_sensor/bias"), node_parameters(BAG))
     assert result.counts["bias"] == "retared" and result.counts["tare_in_bag"] == 200
-    # the same 200 readings, when the live tare missed none; a near miss otherwise. The robust
-    # law's dead zones and contact gates switch on the wrench, so the ~1e-4 N a missed reading
-    # shifts the bias by moves a switching instant: 6.9e-6 rad in the committed bag, when the
-    # live tare missed readings (it was 1e-6 for Table I's linear law)
-    assert (result.max_error() < 2e-5).all(), result.max_error()
+    # the same 200 readings as the live tare, or a near miss when it missed some under load:
+    # a missed reading moves the mean by about its noise / 200 (a tare under load would be off
+    # by newtons)
+    retared, live = (np.array(r.counts["bias_used"]) for r in (result, recorded))
+    np.testing.assert_allclose(retared[:3], live[:3], atol=5e-3)  # [N]
+    np.testing.assert_allclose(retared[3:], live[3:], atol=5e-4)  # [N·m]
+    if np.array_equal(retared, live):  # the live tare missed none: the very same commands
+        assert (result.max_error() <= TOLERANCE).all(), result.max_error()
 
 
 def test_a_bag_without_the_raw_wrench_is_refused_by_name(bag) -> None:

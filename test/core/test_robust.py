@@ -257,3 +257,35 @@ def test_a_stated_loop_delay_keeps_the_insertion_stable(delay_ms: int) -> None:
     assert ok and peak < 20.0
     if delay_ms == 40:
         assert not run(RobustParams())[0]
+
+
+def test_a_stiff_part_behind_a_slow_loop_is_not_pushed_blind() -> None:
+    """10 GPa behind 50 ms of command delay: until the motion into the contact is seen, the
+    identification has nothing to say and the stiffness floor is soft, so an unbounded
+    integrator commands millimetres; the lateral lead bounds it and the part assembles."""
+    ph = _pair("clearance", 1e10)
+    dev = np.array([6e-5, -4e-5, 0.0, 0.0, 0.0])
+
+    def run(params: RobustParams) -> tuple[str, float]:
+        law = RobustFbcc(ph, params)
+        p = np.zeros(5)
+        law.reset(p)
+        rng = np.random.default_rng(0)
+        queue = [np.zeros(5)] * 50
+        a = 1 - math.exp(-DT / 0.005)
+        peak = 0.0
+        for _ in range(4000):
+            x = p + dev
+            x[2] = max(x[2], 0.0)
+            w = ph.response(x)
+            peak = max(peak, float(np.linalg.norm(w[:3])))
+            if peak > 300.0:
+                return "force limit", peak
+            queue.append(law.step(w + rng.normal(size=5) * [0.05, 0.05, 0.05, 2e-3, 2e-3],
+                                  p, DT))  # fmt: skip
+            p += a * (queue.pop(0) - p)
+        return law.phase_of(0), peak
+
+    phase, peak = run(RobustParams(loop_delay=0.055))
+    assert phase == "inserted" and peak < 300.0, (phase, peak)  # below the force limit
+    assert run(RobustParams(loop_delay=0.055, lateral_lead=1.0))[0] == "force limit"
