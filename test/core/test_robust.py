@@ -228,6 +228,32 @@ def test_the_design_keeps_the_stated_margin_with_the_stated_delay() -> None:
     assert fast.phase_margin < math.radians(20)
 
 
+def _behind_a_delay(
+    ph: PegHole, dev: np.ndarray, params: RobustParams, delay_steps: int
+) -> tuple[str, float, float, float]:
+    """The simulator's plant (rigid holder, 5 ms lag, default noise) whose commands take effect
+    ``delay_steps`` periods late: (phase, final depth, peak |(Fx, Fy)|, peak |F|); the phase is
+    ``force limit`` when |F| passed 300 N (the run stops there)."""
+    law = RobustFbcc(ph, params)
+    p = np.zeros(5)
+    law.reset(p)
+    rng = np.random.default_rng(0)
+    queue = [np.zeros(5)] * delay_steps
+    a = 1 - math.exp(-DT / 0.005)
+    peak_lateral = peak = 0.0
+    for _ in range(4000):
+        x = p + dev
+        x[2] = max(x[2], 0.0)
+        w = ph.response(x)
+        peak_lateral = max(peak_lateral, float(np.linalg.norm(w[:2])))
+        peak = max(peak, float(np.linalg.norm(w[:3])))
+        if peak > 300.0:
+            return "force limit", float(p[2]), peak_lateral, peak
+        queue.append(law.step(w + rng.normal(size=5) * [0.05, 0.05, 0.05, 2e-3, 2e-3], p, DT))
+        p += a * (queue.pop(0) - p)
+    return law.phase_of(0), float(p[2]), peak_lateral, peak
+
+
 @pytest.mark.parametrize("delay_ms", [20, 40])
 def test_a_stated_loop_delay_keeps_the_insertion_stable(delay_ms: int) -> None:
     """A cell whose commands take effect ``delay_ms`` late (queues, drivers): stating the delay
@@ -236,22 +262,8 @@ def test_a_stated_loop_delay_keeps_the_insertion_stable(delay_ms: int) -> None:
     dev = np.array([5e-5, -3e-5, 0.0, 0.0, 0.0])
 
     def run(params: RobustParams) -> tuple[bool, float]:
-        law = RobustFbcc(ph, params)
-        p = np.zeros(5)
-        law.reset(p)
-        rng = np.random.default_rng(0)
-        queue = [np.zeros(5)] * delay_ms
-        a = 1 - math.exp(-DT / 0.005)
-        peak = 0.0
-        for _ in range(4000):
-            x = p + dev
-            x[2] = max(x[2], 0.0)
-            w = ph.response(x)
-            peak = max(peak, float(np.linalg.norm(w[:2])))
-            queue.append(law.step(w + rng.normal(size=5) * [0.05, 0.05, 0.05, 2e-3, 2e-3],
-                                  p, DT))  # fmt: skip
-            p += a * (queue.pop(0) - p)
-        return law.phase_of(0) == "inserted" and abs(p[2] - 0.01) < 1e-5, peak
+        phase, depth, peak_lateral, _ = _behind_a_delay(ph, dev, params, delay_ms)
+        return phase == "inserted" and abs(depth - 0.01) < 1e-5, peak_lateral
 
     ok, peak = run(RobustParams(loop_delay=delay_ms * 1e-3 + 0.005))
     assert ok and peak < 20.0
@@ -265,27 +277,7 @@ def test_a_stiff_part_behind_a_slow_loop_is_not_pushed_blind() -> None:
     integrator commands millimetres; the lateral lead bounds it and the part assembles."""
     ph = _pair("clearance", 1e10)
     dev = np.array([6e-5, -4e-5, 0.0, 0.0, 0.0])
-
-    def run(params: RobustParams) -> tuple[str, float]:
-        law = RobustFbcc(ph, params)
-        p = np.zeros(5)
-        law.reset(p)
-        rng = np.random.default_rng(0)
-        queue = [np.zeros(5)] * 50
-        a = 1 - math.exp(-DT / 0.005)
-        peak = 0.0
-        for _ in range(4000):
-            x = p + dev
-            x[2] = max(x[2], 0.0)
-            w = ph.response(x)
-            peak = max(peak, float(np.linalg.norm(w[:3])))
-            if peak > 300.0:
-                return "force limit", peak
-            queue.append(law.step(w + rng.normal(size=5) * [0.05, 0.05, 0.05, 2e-3, 2e-3],
-                                  p, DT))  # fmt: skip
-            p += a * (queue.pop(0) - p)
-        return law.phase_of(0), peak
-
-    phase, peak = run(RobustParams(loop_delay=0.055))
+    phase, _, _, peak = _behind_a_delay(ph, dev, RobustParams(loop_delay=0.055), 50)
     assert phase == "inserted" and peak < 300.0, (phase, peak)  # below the force limit
-    assert run(RobustParams(loop_delay=0.055, lateral_lead=1.0))[0] == "force limit"
+    unbounded = RobustParams(loop_delay=0.055, lateral_lead=1.0)
+    assert _behind_a_delay(ph, dev, unbounded, 50)[0] == "force limit"
