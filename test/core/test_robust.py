@@ -4,7 +4,9 @@ against the closed loop's poles, and the law in closed loop across stiffnesses."
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -229,11 +231,12 @@ def test_the_design_keeps_the_stated_margin_with_the_stated_delay() -> None:
 
 
 def _behind_a_delay(
-    ph: PegHole, dev: np.ndarray, params: RobustParams, delay_steps: int
-) -> tuple[str, float, float, float]:
+    ph: PegHole, dev: np.ndarray, params: RobustParams, delay_steps: int, keep: bool = False
+) -> tuple[Any, ...]:
     """The simulator's plant (rigid holder, 5 ms lag, default noise) whose commands take effect
-    ``delay_steps`` periods late: (phase, final depth, peak |(Fx, Fy)|, peak |F|); the phase is
-    ``force limit`` when |F| passed 300 N (the run stops there)."""
+    ``delay_steps`` periods late: (phase, final depth, peak |(Fx, Fy)|, peak |F|), and with
+    ``keep`` the commands (T, 5); the phase is ``force limit`` when |F| passed 300 N (the run
+    stops there)."""
     law = RobustFbcc(ph, params)
     p = np.zeros(5)
     law.reset(p)
@@ -241,6 +244,7 @@ def _behind_a_delay(
     queue = [np.zeros(5)] * delay_steps
     a = 1 - math.exp(-DT / 0.005)
     peak_lateral = peak = 0.0
+    commands: list[np.ndarray] = []
     for _ in range(4000):
         x = p + dev
         x[2] = max(x[2], 0.0)
@@ -248,10 +252,14 @@ def _behind_a_delay(
         peak_lateral = max(peak_lateral, float(np.linalg.norm(w[:2])))
         peak = max(peak, float(np.linalg.norm(w[:3])))
         if peak > 300.0:
-            return "force limit", float(p[2]), peak_lateral, peak
+            out = ("force limit", float(p[2]), peak_lateral, peak, np.array(commands))
+            return out if keep else out[:4]
         queue.append(law.step(w + rng.normal(size=5) * [0.05, 0.05, 0.05, 2e-3, 2e-3], p, DT))
+        if keep:
+            commands.append(queue[-1])
         p += a * (queue.pop(0) - p)
-    return law.phase_of(0), float(p[2]), peak_lateral, peak
+    out = (law.phase_of(0), float(p[2]), peak_lateral, peak, np.array(commands))
+    return out if keep else out[:4]
 
 
 @pytest.mark.parametrize("delay_ms", [20, 40])
@@ -281,3 +289,53 @@ def test_a_stiff_part_behind_a_slow_loop_is_not_pushed_blind() -> None:
     assert phase == "inserted" and peak < 300.0, (phase, peak)  # below the force limit
     unbounded = RobustParams(loop_delay=0.055, lateral_lead=1.0)
     assert _behind_a_delay(ph, dev, unbounded, 50)[0] == "force limit"
+
+
+#: Per parameter of the robust law: the value to change it to, and what else the run needs for
+#: the parameter to act (a guard that trips, a force limit that is reached).
+_CHANGED: dict[str, tuple[object, dict[str, object]]] = {
+    "sensor_noise": ((0.1, 0.1, 0.1, 0.004, 0.004), {}),
+    "phase_margin": (math.radians(40.0), {"loop_delay": 0.05}),
+    "loop_delay": (0.03, {}),
+    "stiffness_min": (1e11, {}),
+    "guard_cycles": (3, {"guard_growth": 0.45}),
+    "guard_amplitude": (400.0, {"guard_growth": 0.45}),
+    "guard_backoff": (2.0, {"guard_growth": 0.45}),
+    "guard_hold": (0.05, {"guard_growth": 0.45}),
+    "fz_back_off": (30.0, {}),
+    "F_ext_limit": (15.0, {"fz_back_off": 10.0}),
+    "coupling_limit": (0.5, {}),
+    "plane_gate": (False, {}),
+    "guard_growth": (0.45, {}),
+}
+#: Parameters that act only when the commands take effect late (the delayed plant).
+_DELAYED = {"depth_lead": 1e-4, "lateral_lead": 1.0, "tilt_lead": 1e-4}
+
+
+def _commands(params: RobustParams) -> np.ndarray:
+    data = {"geometry": {"hole_radius": 5.05e-3, "peg_radius": 5.04e-3, "hole_depth": 0.01,
+                         "base_thickness": 0.005, "friction": 0.3, "stiffness": 3e10},
+            "initial": {"dx": 6e-5, "dy": -4e-5, "theta_x": 0.02, "theta_y": -0.03},
+            "duration": 1.5}  # fmt: skip
+    sc = dataclasses.replace(validate(data), params=params)
+    _, trajectory = simulate(sc, "fbcc")
+    assert trajectory is not None
+    return trajectory.command[:, 0]
+
+
+@pytest.mark.parametrize("name", [f.name for f in dataclasses.fields(RobustParams)])
+def test_every_robust_parameter_changes_the_commands(name: str) -> None:
+    """Each parameter of the robust law acts: changed, the commands of a stiff clearance run
+    (or, for the leads, of a part behind 50 ms of command delay) are not the same."""
+    default = getattr(RobustParams(), name)
+    if name in _DELAYED:
+        ph, dev = _pair("clearance", 1e10), np.array([6e-5, -4e-5, 0.0, 0.01, -0.01])
+        base = RobustParams(loop_delay=0.05)
+        changed = dataclasses.replace(base, **{name: _DELAYED[name]})
+        runs = [_behind_a_delay(ph, dev, p, 50, keep=True) for p in (base, changed)]
+        assert not np.array_equal(runs[0][4], runs[1][4]), name
+        return
+    value, needs = _CHANGED[name] if name in _CHANGED else (0.5 * default, {})
+    base = RobustParams(**needs)  # type: ignore[arg-type]
+    changed = dataclasses.replace(base, **{name: value})
+    assert not np.array_equal(_commands(base), _commands(changed)), name
