@@ -384,7 +384,7 @@ class RobustFbcc:
         filtered = su * math.sqrt(min(1.0, p.filter_frequency * dt / (4 * p.filter_damping)))
         base, per_depth = nom.lever_terms()
         prm = np.zeros(_N_PARAMS)
-        chosen = self.design = design(p, dt)
+        chosen = design(p, dt)
         prm[_P_WC] = chosen.bandwidth
         prm[_P_DB_X : _P_DB_TY + 1] = p.dead_band * filtered
         prm[_P_FORGET] = ident.forgetting(p.identification_window, dt)
