@@ -34,6 +34,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike
 
+from fbcc_ros.core.axis_insertion import AxisInsertion
 from fbcc_ros.core.contact import FloatArray, PegHole, as_rows
 from fbcc_ros.core.errors import ConfigError, InputError, require_number
 from fbcc_ros.core.filters import second_order_row
@@ -274,12 +275,14 @@ class ComplianceLaw:
                   self.params.x_d_limit_o, self.params.x_d_limit_o)  # fmt: skip
         self._dead_band = np.array(limits)
         self._single = True
+        self.axis = AxisInsertion(nominal.peg_radius)
         self.reset(np.zeros(5))
         _load_step()
 
     def reset(self, features: ArrayLike) -> None:
         """Start an insertion from the measured features, shape (5,) or (N, 5)."""
         rows, self._single = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
+        rows = self.axis.reset(rows)  # the law runs along the peg's axis
         n = len(rows)
         self.filter.reset(n)
         self._x_rfr = rows.copy()  # reference feature vector; l is replaced by the ramp
@@ -331,8 +334,8 @@ class ComplianceLaw:
         n = len(self._command)
         if len(w) != n or len(x) != n:
             raise InputError("response", f"{len(w)} rows", f"{n} rows, as reset")
-        # contiguous, as _load_step loaded it (a column of the simulator's poses is not)
-        depth_arr = np.ascontiguousarray(x[:, 2])
+        # the axis depth (contiguous, as _load_step loaded it)
+        depth_arr = np.ascontiguousarray(self.axis.measured(x, dt)[:, 2])
         c = self.filter.coefficients(dt)
         x_d, v_d = self.filter.state()
         base, per_depth = self._lever
@@ -341,7 +344,8 @@ class ComplianceLaw:
                   self.params.F_ext_limit**2, self.insertion.speed, self.insertion.depth,
                   x_d, v_d, self._x_rfr, self._l0, self._elapsed, self._sum, self._stopped,
                   self._command)  # fmt: skip
-        return (self._command[0] if self._single else self._command).copy()
+        command = self.axis.command(self._command)
+        return command[0] if self._single else command
 
 
 #: Codes of the laws in the compiled step.

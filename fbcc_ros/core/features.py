@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -84,6 +85,40 @@ def _check_tilted_less_than_90(rotation_peg_in_hole: FloatArray) -> float:
     return a_z
 
 
+@numba.njit(cache=True)  # type: ignore[misc]
+def _axis_and_tip(
+    dx: float, dy: float, depth: float, theta_x: float, theta_y: float, peg_radius: float
+) -> tuple[float, float, float, float, float, float]:
+    """The peg's upward axis ``a`` and its tip centre in {H}, ``(a_x, a_y, a_z, p_x, p_y, p_z)``,
+    of features (the inverse of :func:`_features_of`)."""
+    # Upward axis from the projected tilts (eq. 3): a ∝ (tan theta_y, -tan theta_x, 1).
+    tx, ty = math.tan(theta_y), -math.tan(theta_x)
+    norm = math.sqrt(1.0 + tx * tx + ty * ty)
+    a_x, a_y, a_z = tx / norm, ty / norm, 1.0 / norm
+    sin_t = math.hypot(a_x, a_y)
+    along = 0.5 * depth + peg_radius * sin_t * (1.0 - 1.0 / a_z)
+    return a_x, a_y, a_z, dx - along * a_x, dy - along * a_y, -(depth * a_z - peg_radius * sin_t)
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def _features_of(
+    a_x: float, a_y: float, a_z: float, p_x: float, p_y: float, p_z: float, peg_radius: float,
+    out: FloatArray,
+) -> None:  # fmt: skip
+    """Features into ``out`` (5,) of the peg with upward axis ``a`` and tip centre ``p`` in {H}."""
+    sin_t = math.hypot(a_x, a_y)
+    # Lowest point of the end face at depth l cos(theta) (eq. 5, s = 0): it is r sin(theta)
+    # below the tip centre, which is at depth -p_z.
+    depth = (-p_z + peg_radius * sin_t) / a_z
+    # O_p of eq. 5 at the slice through the axis point l/2 from the tip; a_xy = sin(theta) e.
+    along = 0.5 * depth + peg_radius * sin_t * (1.0 - 1.0 / a_z)
+    out[0] = p_x + along * a_x
+    out[1] = p_y + along * a_y
+    out[2] = depth
+    out[3] = math.atan2(-a_y, a_z)
+    out[4] = math.atan2(a_x, a_z)
+
+
 def features_from_pose(
     rotation_peg_in_hole: ArrayLike, position_peg_in_hole: ArrayLike, peg_radius: float
 ) -> FloatArray:
@@ -97,22 +132,10 @@ def features_from_pose(
     rot = np.asarray(rotation_peg_in_hole, dtype=float)
     pos = np.asarray(position_peg_in_hole, dtype=float)
     a_z = _check_tilted_less_than_90(rot)
-    a_x, a_y = -float(rot[0, 2]), -float(rot[1, 2])
-    sin_t = math.hypot(a_x, a_y)
-    # Lowest point of the end face at depth l cos(theta) (eq. 5, s = 0): it is r sin(theta)
-    # below the tip centre, which is at depth -p_z.
-    depth = (-float(pos[2]) + peg_radius * sin_t) / a_z
-    # O_p of eq. 5 at the slice through the axis point l/2 from the tip; a_xy = sin(theta) e.
-    along = 0.5 * depth + peg_radius * sin_t * (1.0 - 1.0 / a_z)
-    return np.array(
-        [
-            float(pos[0]) + along * a_x,
-            float(pos[1]) + along * a_y,
-            depth,
-            math.atan2(-a_y, a_z),
-            math.atan2(a_x, a_z),
-        ]
-    )
+    out = np.empty(5)
+    _features_of(-float(rot[0, 2]), -float(rot[1, 2]), a_z, float(pos[0]), float(pos[1]),
+                 float(pos[2]), peg_radius, out)  # fmt: skip
+    return out
 
 
 def pose_from_features(
@@ -134,25 +157,15 @@ def pose_from_features(
         raise InputError(
             "features (theta_x, theta_y)", (theta_x, theta_y), "tilts within (-pi/2, pi/2) rad"
         )
-    # Upward axis from the projected tilts (eq. 3): a ∝ (tan theta_y, -tan theta_x, 1).
-    tx, ty = math.tan(theta_y), -math.tan(theta_x)
-    norm = math.sqrt(1.0 + tx * tx + ty * ty)
-    axis = (tx / norm, ty / norm, 1.0 / norm)
-    a_z = axis[2]
-    sin_t = math.hypot(axis[0], axis[1])
+    a_x, a_y, a_z, tip_x, tip_y, tip_z = _axis_and_tip(dx, dy, depth, theta_x, theta_y,
+                                                       peg_radius)  # fmt: skip
     c, s = math.cos(spin), math.sin(spin)
     # R_HP = S(a) R_aligned R_z(spin) = S(a) [[c, -s, 0], [-s, -c, 0], [0, 0, -1]], multiplied
     # out on floats (no 3x3 products at 1 kHz).
-    rotation = np.array([[s0 * c - s1 * s, -s0 * s - s1 * c, -s2] for s0, s1, s2 in _swing(axis)])
-    along = 0.5 * depth + peg_radius * sin_t * (1.0 - 1.0 / a_z)
-    position = np.array(
-        [
-            dx - along * axis[0],
-            dy - along * axis[1],
-            -(depth * a_z - peg_radius * sin_t),
-        ]
+    rotation = np.array(
+        [[s0 * c - s1 * s, -s0 * s - s1 * c, -s2] for s0, s1, s2 in _swing((a_x, a_y, a_z))]
     )
-    return rotation, position
+    return rotation, np.array([tip_x, tip_y, tip_z])
 
 
 def spin_of(rotation_peg_in_hole: ArrayLike) -> float:
@@ -167,3 +180,66 @@ def spin_of(rotation_peg_in_hole: ArrayLike) -> float:
     cos_spin = (1.0 - a_x * a_x * c) * x0 - a_x * a_y * c * x1 - a_x * x2
     sin_spin = -(-a_x * a_y * c * x0 + (1.0 - a_y * a_y * c) * x1 - a_y * x2)
     return math.atan2(sin_spin, cos_spin)
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def in_deviated_hole(
+    pose: FloatArray, deviation: FloatArray, r_nominal: float, r_true: float, out: FloatArray
+) -> None:
+    """Features into ``out`` (5,) of the peg at ``pose`` (5,) of the believed hole, in the hole
+    at ``deviation`` (5,) (see :func:`true_features`)."""
+    # T_{H_true H} = P(x_dev) P(0)^-1 = (S(b), q): b and q the axis and tip of P(x_dev)
+    b_x, b_y, b_z, q_x, q_y, q_z = _axis_and_tip(
+        deviation[0], deviation[1], 0.0, deviation[3], deviation[4], r_nominal
+    )
+    a_x, a_y, a_z, p_x, p_y, p_z = _axis_and_tip(pose[0], pose[1], pose[2], pose[3], pose[4],
+                                                 r_nominal)  # fmt: skip
+    c = 1.0 / (1.0 + b_z)  # S(b), the rows of _swing
+    s00, s01, s02 = 1.0 - b_x * b_x * c, -b_x * b_y * c, b_x
+    s11, s12 = 1.0 - b_y * b_y * c, b_y
+    # the axis turns with S(b); the tip also moves by q
+    _features_of(
+        s00 * a_x + s01 * a_y + s02 * a_z,
+        s01 * a_x + s11 * a_y + s12 * a_z,
+        -b_x * a_x - b_y * a_y + b_z * a_z,
+        s00 * p_x + s01 * p_y + s02 * p_z + q_x,
+        s01 * p_x + s11 * p_y + s12 * p_z + q_y,
+        -b_x * p_x - b_y * p_y + b_z * p_z + q_z,
+        r_true,
+        out,
+    )
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def _true_rows(
+    pose: FloatArray, deviation: FloatArray, r_nominal: float, r_true: FloatArray,
+    out: FloatArray,
+) -> None:  # fmt: skip
+    for i in range(pose.shape[0]):
+        in_deviated_hole(pose[i], deviation[i], r_nominal, r_true[i], out[i])
+
+
+def true_features(
+    pose: ArrayLike, deviation: ArrayLike, peg_radius: float, true_radius: ArrayLike | None = None
+) -> FloatArray:
+    """Features in the true hole of a peg at features ``pose`` of the believed hole, (N, 5).
+
+    The true hole sits at the deviation ``x_dev = (dx, dy, ·, theta_x, theta_y)`` (its depth
+    ignored): a peg at the believed features 0 has the true features ``x_dev``, so
+    ``T_{H H_true} = P(0) P(x_dev)^-1`` with ``P(x)`` the peg pose of features x (spin 0). The
+    plant of the simulator and the mock cell (:mod:`fbcc_ros.core.cell`).
+
+    Args:
+        pose: (N, 5) or (5,), features in the believed hole.
+        deviation: (N, 5) or (5,), the true hole's deviation.
+        peg_radius: Nominal r [m], with which the robot reads its pose as features.
+        true_radius: The true r per trial [m] (default: the nominal one).
+    """
+    x = np.ascontiguousarray(np.atleast_2d(np.asarray(pose, dtype=float)))
+    dev = np.ascontiguousarray(np.broadcast_to(np.asarray(deviation, dtype=float), x.shape))
+    r_true = np.broadcast_to(
+        np.asarray(peg_radius if true_radius is None else true_radius, dtype=float), len(x)
+    )
+    out = np.empty_like(x)
+    _true_rows(x, dev, float(peg_radius), np.ascontiguousarray(r_true), out)
+    return out

@@ -62,6 +62,7 @@ from numpy.typing import ArrayLike
 
 from fbcc_ros.core import guard as guard_mod
 from fbcc_ros.core import identification as ident
+from fbcc_ros.core.axis_insertion import AxisInsertion
 from fbcc_ros.core.contact import FloatArray, PegHole, as_rows
 from fbcc_ros.core.errors import ConfigError, InputError, require_number
 from fbcc_ros.core.filters import second_order_row
@@ -139,7 +140,7 @@ class RobustParams:
     dither_effort: float = 2.0
     dither_max_offset: float = 2e-6
     dither_max_tilt: float = 2e-4
-    offset_force: float = 8.0
+    offset_force: float = 15.0
     tilt_effort: float = 3.0
     depth_bandwidth: float = 50.0
     depth_lead: float = 0.01
@@ -289,6 +290,7 @@ class RobustFbcc:
         self._coeffs: dict[float, FloatArray] = {}
         self._prm: dict[float, FloatArray] = {}
         self._single = True
+        self.axis = AxisInsertion(nominal.peg_radius)
         self.reset(np.zeros(5))
         _load_step()
 
@@ -306,6 +308,7 @@ class RobustFbcc:
     def reset(self, features: ArrayLike) -> None:
         """Start an insertion from the measured features, shape (5,) or (N, 5)."""
         rows, self._single = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
+        rows = self.axis.reset(rows)  # the law runs along the peg's axis
         n = len(rows)
         self._main = np.zeros((n, _N_MAIN))
         self._main[:, _C_RFR : _C_RFR + 5] = rows
@@ -327,10 +330,11 @@ class RobustFbcc:
         n = len(self._command)
         if len(w) != n or len(x) != n:
             raise InputError("response", f"{len(w)} rows", f"{n} rows, as reset")
-        _robust_rows(np.ascontiguousarray(w), np.ascontiguousarray(x), self._parameters(dt),
+        _robust_rows(np.ascontiguousarray(w), self.axis.measured(x, dt), self._parameters(dt),
                      self._coefficients(dt), self._main, self._ident, self._guard,
                      self._command)  # fmt: skip
-        return (self._command[0] if self._single else self._command).copy()
+        command = self.axis.command(self._command)
+        return command[0] if self._single else command
 
     def phase_of(self, trial: int) -> str:
         """``inserting``, ``inserted`` (the depth command reached the depth) or

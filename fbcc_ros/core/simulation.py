@@ -3,8 +3,10 @@
 The plant, per trial:
 
 * **the hole** sits at an unknown deviation ``x_dev = (dx, dy, 0, theta_x, theta_y)`` from where
-  the robot believes it is. The true features are ``x = p + x_dev`` with ``p`` the robot's pose
-  as features of the believed hole (exact for offsets, first order in the tilts);
+  the robot believes it is: a peg at the believed features 0 has the true features ``x_dev``.
+  The true features of the robot's pose ``p`` (features of the believed hole) follow exactly,
+  ``T_{H_true P} = P(x_dev) P(0)^-1 P(p)`` (:func:`fbcc_ros.core.features.true_features`, the
+  mock cell's plant too);
 * **the robot** is position controlled: ``p`` follows the command x_c with a first-order lag,
   ``p(k+1) = p(k) + (1 - exp(-dt/tau)) (x_c(k) - p(k))``;
 * **the contact** is the analytic model of eq. (5)-(13) (:mod:`fbcc_ros.core.contact`), with the
@@ -59,6 +61,7 @@ import numpy as np
 from fbcc_ros.core.contact import FEATURE_NAMES, ContactBatch, FloatArray, PegHole
 from fbcc_ros.core.control import make_law
 from fbcc_ros.core.errors import ConfigError, FbccError
+from fbcc_ros.core.features import true_features
 from fbcc_ros.core.holder import HolderSolver
 from fbcc_ros.core.scenario import Scenario, validate
 from fbcc_ros.core.segmentation import feature_state
@@ -201,9 +204,12 @@ def simulate(
     """
     dev = np.atleast_2d(sc.initial if initial is None else np.asarray(initial, dtype=float))
     n = len(dev)
-    contact = ContactBatch.of(list(geometries) if geometries is not None else [sc.geometry])
+    pairs = list(geometries) if geometries is not None else [sc.geometry]
+    contact = ContactBatch.of(pairs)
     if len(contact) not in (1, n):
         raise ConfigError("geometries", f"{len(contact)} pairs", f"1 or {n}, one per trial")
+    r_nominal = sc.geometry.peg_radius
+    r_true = np.broadcast_to(np.array([g.peg_radius for g in pairs]), n).copy()
     rng = np.random.default_rng(sc.seed if seed is None else seed)
     law = make_law(law_name, sc.geometry, sc.params, sc.insertion)
     dt = 1.0 / sc.rate_hz
@@ -219,7 +225,7 @@ def simulate(
     for k0 in range(0, steps, _CHUNK):
         kk = min(_CHUNK, steps - k0)
         for j in range(kk):
-            x = pose + dev  # true features (of a rigid holder)
+            x = true_features(pose, dev, r_nominal, r_true)  # of a rigid holder
             x_touch = x.copy()
             np.maximum(x_touch[:, 2], 0.0, out=x_touch[:, 2])  # above the hole: no contact
             if holder is None:

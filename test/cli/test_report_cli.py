@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import subprocess
 import sys
@@ -31,7 +32,11 @@ def test_the_report_of_a_recorded_session(tmp_path: Path, capsys) -> None:
     # the scenario's 4 mm at no more than 5 mm/s from the first command (the robust law slows
     # or holds the depth while the lateral loops settle), within the 1.6 s session
     assert 0.8 - 0.01 <= summary["insertion_time_s"] <= 1.6
-    assert summary["final_features"]["l"] == pytest.approx(4e-3, abs=1e-6)
+    # the depth ends at 4 mm along the peg's own axis (the axis depth): the features' l, in
+    # this untilted hole, differs by at most 2 r |theta| of the peg's residual tilt
+    final = summary["final_features"]
+    tilt = math.hypot(final["theta_x"], final["theta_y"])
+    assert abs(final["l"] - 4e-3) <= 2 * 5.04e-3 * tilt + 1e-7 and tilt < 1e-3, final
     # the robust law's identification, recorded and reported: positive, bounded stiffnesses
     est = summary["contact_estimate"]
     assert est["k_dx"] > 0 and est["k_theta_y"] > 0 and 0 < est["friction"] < 1

@@ -11,7 +11,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fbcc_ros.core.errors import InputError
-from fbcc_ros.core.features import R_ALIGNED, features_from_pose, pose_from_features, spin_of
+from fbcc_ros.core.features import (
+    R_ALIGNED,
+    features_from_pose,
+    pose_from_features,
+    spin_of,
+    true_features,
+)
 
 R = 5.04e-3  # the paper's peg radius [m]
 
@@ -118,3 +124,33 @@ def test_pointing_away_from_the_hole_is_refused() -> None:
         features_from_pose(np.eye(3), [0, 0, 0], R)
     with pytest.raises(InputError, match="theta_x"):
         pose_from_features([0, 0, 0, 1.6, 0], R)
+
+
+def _se3(features: np.ndarray, radius: float = R) -> np.ndarray:
+    rotation, position = pose_from_features(features, radius)
+    t = np.eye(4)
+    t[:3, :3], t[:3, 3] = rotation, position
+    return t
+
+
+def believed(true: np.ndarray, deviation: np.ndarray) -> np.ndarray:
+    """Features in the believed hole of the peg at ``true`` features of the hole deviated by
+    ``deviation``, by 4×4 products: T_HP = P(0) P(x_dev)^-1 P(x_true)."""
+    t = _se3(np.zeros(5)) @ np.linalg.inv(_se3(deviation)) @ _se3(true)
+    return features_from_pose(t[:3, :3], t[:3, 3], R)
+
+
+deviations = st.tuples(offsets, offsets, st.floats(-0.06, 0.06), st.floats(-0.06, 0.06))
+
+
+@settings(max_examples=200, deadline=None)
+@given(deviations, offsets, offsets, depths, tilts, tilts)
+def test_true_features_compose_the_deviated_hole(dev, dx, dy, depth, tx, ty) -> None:
+    """The simulator's plant against the same composition by homogeneous matrices."""
+    deviation = np.array([dev[0], dev[1], 0.0, dev[2], dev[3]])
+    true = np.array([dx, dy, depth, tx, ty])
+    in_believed = believed(true, deviation)
+    np.testing.assert_allclose(true_features(in_believed, deviation, R)[0], true, atol=1e-15)
+    # the peg at the believed features 0 has the true features x_dev
+    np.testing.assert_allclose(true_features(np.zeros(5), deviation, R)[0], deviation,
+                               atol=1e-15)  # fmt: skip

@@ -299,10 +299,10 @@ _CHANGED: dict[str, tuple[object, dict[str, object]]] = {
     "loop_delay": (0.03, {}),
     "stiffness_min": (1e11, {}),
     "guard_cycles": (3, {"guard_growth": 0.45}),
-    "guard_amplitude": (400.0, {"guard_growth": 0.45}),
+    "guard_amplitude": (4000.0, {"guard_growth": 0.45}),  # above the one trip's amplitude
     "guard_backoff": (2.0, {"guard_growth": 0.45}),
     "guard_hold": (0.05, {"guard_growth": 0.45}),
-    "fz_back_off": (30.0, {}),
+    "fz_back_off": (5.0, {}),  # below the run's peak Fz (9.3 N)
     "F_ext_limit": (15.0, {"fz_back_off": 10.0}),
     "coupling_limit": (0.5, {}),
     "plane_gate": (False, {}),
