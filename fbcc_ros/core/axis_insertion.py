@@ -18,7 +18,9 @@ A law therefore sees, and commands, these coordinates instead:
   ``D``; each advance ``Δλ`` of the commanded depth moves the peg rigidly along its own
   (commanded) axis ``a``, which in the believed features is
 
-  .. math:: \\Delta l = \\Delta\\lambda, \\qquad \\Delta(dx, dy) = -\\tfrac12 (a_x, a_y)\\,\\Delta\\lambda
+  .. math::
+      \\Delta l = \\Delta\\lambda, \\qquad
+      \\Delta(dx, dy) = -\\tfrac12 (a_x, a_y)\\,\\Delta\\lambda
 
   (``(dx, dy)`` is the axis point at mid-depth, which moves half as far as the tip). The drift
   is a path integral, not a function of the pose: a tilt adjustment still turns the peg about

@@ -211,10 +211,12 @@ def in_deviated_hole(
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
-def _true_rows(
+def true_rows(
     pose: FloatArray, deviation: FloatArray, r_nominal: float, r_true: FloatArray,
     out: FloatArray,
 ) -> None:  # fmt: skip
+    """:func:`true_features` into ``out`` (N, 5), on arrays the caller prepared: pose and
+    deviation (N, 5) and the true radii (N,), all contiguous float64 (the simulator's loop)."""
     for i in range(pose.shape[0]):
         in_deviated_hole(pose[i], deviation[i], r_nominal, r_true[i], out[i])
 
@@ -241,5 +243,5 @@ def true_features(
         np.asarray(peg_radius if true_radius is None else true_radius, dtype=float), len(x)
     )
     out = np.empty_like(x)
-    _true_rows(x, dev, float(peg_radius), np.ascontiguousarray(r_true), out)
+    true_rows(x, dev, float(peg_radius), np.ascontiguousarray(r_true), out)
     return out

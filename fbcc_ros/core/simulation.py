@@ -61,7 +61,7 @@ import numpy as np
 from fbcc_ros.core.contact import FEATURE_NAMES, ContactBatch, FloatArray, PegHole
 from fbcc_ros.core.control import make_law
 from fbcc_ros.core.errors import ConfigError, FbccError
-from fbcc_ros.core.features import true_features
+from fbcc_ros.core.features import true_rows
 from fbcc_ros.core.holder import HolderSolver
 from fbcc_ros.core.scenario import Scenario, validate
 from fbcc_ros.core.segmentation import feature_state
@@ -210,6 +210,7 @@ def simulate(
         raise ConfigError("geometries", f"{len(contact)} pairs", f"1 or {n}, one per trial")
     r_nominal = sc.geometry.peg_radius
     r_true = np.broadcast_to(np.array([g.peg_radius for g in pairs]), n).copy()
+    dev_rows = np.ascontiguousarray(dev, dtype=float)
     rng = np.random.default_rng(sc.seed if seed is None else seed)
     law = make_law(law_name, sc.geometry, sc.params, sc.insertion)
     dt = 1.0 / sc.rate_hz
@@ -225,7 +226,8 @@ def simulate(
     for k0 in range(0, steps, _CHUNK):
         kk = min(_CHUNK, steps - k0)
         for j in range(kk):
-            x = true_features(pose, dev, r_nominal, r_true)  # of a rigid holder
+            x = np.empty((n, 5))
+            true_rows(pose, dev_rows, r_nominal, r_true, x)  # of a rigid holder
             x_touch = x.copy()
             np.maximum(x_touch[:, 2], 0.0, out=x_touch[:, 2])  # above the hole: no contact
             if holder is None:

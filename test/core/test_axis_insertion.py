@@ -35,9 +35,8 @@ def test_an_aligned_peg_reads_its_true_depth_in_a_tilted_hole(tilts: tuple[float
         rows = _settled(axis, pose)
         assert rows[0, 2] == pytest.approx(depth, abs=1e-9)
         assert abs(pose[0, 2] - depth) > 0.1 * 2 * R * math.hypot(*tilts)  # l itself is not
-        commanded = axis.command(rows + [[1e-6, -2e-6, 1e-4, 1e-3, -2e-3]])
-        np.testing.assert_allclose(axis.measured(commanded, 0.0), rows + [[1e-6, -2e-6, 1e-4,
-                                   1e-3, -2e-3]], atol=1e-12)  # fmt: skip
+        moved = rows + np.array([1e-6, -2e-6, 1e-4, 1e-3, -2e-3])
+        np.testing.assert_allclose(axis.measured(axis.command(moved), 0.0), moved, atol=1e-12)
 
 
 def test_the_residual_misalignment_errs_by_at_most_about_2r_delta() -> None:

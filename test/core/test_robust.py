@@ -15,6 +15,7 @@ from fbcc_ros.core import identification as ident
 from fbcc_ros.core.contact import PegHole
 from fbcc_ros.core.control import ComplianceParams, make_law, params_from_mapping
 from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.features import true_features
 from fbcc_ros.core.guard import GuardParams, OscillationGuard
 from fbcc_ros.core.robust import RobustFbcc, RobustParams, design, loop_margins, loop_transfer
 from fbcc_ros.core.scenario import validate
@@ -246,7 +247,7 @@ def _behind_a_delay(
     peak_lateral = peak = 0.0
     commands: list[np.ndarray] = []
     for _ in range(4000):
-        x = p + dev
+        x = true_features(p, dev, ph.peg_radius)[0]
         x[2] = max(x[2], 0.0)
         w = ph.response(x)
         peak_lateral = max(peak_lateral, float(np.linalg.norm(w[:2])))
