@@ -11,6 +11,10 @@ While it measures, the observer listens only to what the figures need (joint com
 commands, the phase), not to the truth, compensated wrenches and features the bringup watches:
 the instrument should load the loop it measures as little as it can.
 
+The ``fbcc`` chain runs the scenario's law (Table I label 3) or, with ``robust``, the same
+scenario with the stiffness-robust law (identification, guard, axis insertion; ``loop_delay``
+0.05 s, as the hardware-free cell states it), so that the two laws' cost to the loop compare.
+
 - cycles delivered: joint commands received / periods of the run (rate × seconds);
 - latency: sensor stamp → TCP command received, p50 and p99 (both on the system clock);
 - CPU per node, as a share of one core (:mod:`fbcc_ros.nodes.harness`).
@@ -18,10 +22,13 @@ the instrument should load the loop it measures as little as it can.
 
 from __future__ import annotations
 
+import tempfile
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -32,6 +39,8 @@ from fbcc_ros.nodes import topics
 from fbcc_ros.nodes.harness import CellRun, NodeSpec
 
 SCENARIO = "config/scenarios/bringup_interference.yaml"
+#: ``controller.params`` of the robust run: the robust law with the cell's stated loop delay.
+ROBUST_PARAMS = {"loop_delay": 0.05}
 
 
 class BareCompensation(Node):
@@ -90,12 +99,27 @@ class LoopFigures:
     cpu: dict[str, float]  # share of one core, per node
 
 
-def measure(chain: str, seconds: float, processes: bool = False) -> LoopFigures:
-    """Runs the ``bare`` or the ``fbcc`` chain for ``seconds`` at the scenario's rate."""
-    from fbcc_ros.nodes.bringup import cell_nodes, start_insertion
+def measure(
+    chain: str, seconds: float, processes: bool = False, robust: bool = False
+) -> LoopFigures:
+    """Runs the ``bare`` or the ``fbcc`` chain for ``seconds`` at the scenario's rate; with
+    ``robust``, the ``fbcc`` chain runs the stiffness-robust law (module doc)."""
     from fbcc_ros.nodes.params import find_scenario
 
-    path = str(find_scenario(SCENARIO))
+    path = find_scenario(SCENARIO)
+    if not robust:
+        return _measure(chain, seconds, processes, str(path))
+    data = yaml.safe_load(path.read_text())
+    data["controller"] = {"type": "fbcc", "params": ROBUST_PARAMS}
+    with tempfile.TemporaryDirectory() as folder:
+        robust_path = Path(folder) / "robust.yaml"
+        robust_path.write_text(yaml.safe_dump(data))
+        return _measure(chain, seconds, processes, str(robust_path))
+
+
+def _measure(chain: str, seconds: float, processes: bool, path: str) -> LoopFigures:
+    from fbcc_ros.nodes.bringup import cell_nodes, start_insertion
+
     sc = scenario_io.load(path)
     specs = cell_nodes(path, sc, "fbcc", processes=processes)
     if chain == "bare":
