@@ -24,7 +24,10 @@ sensor noise, which the paper's ``x_d_limit`` is for). With ``Ĵ = J`` each deco
 underestimate the loop survives. The identification errs stiff (floor, slow release) and the
 oscillation guard (:mod:`fbcc_ros.core.guard`) backs a row's gain off by ``guard_backoff`` when its
 filtered response oscillates without decaying (a growing oscillation, or a limit cycle such as a
-delay the margins did not budget for makes), and holds the depth for ``guard_hold``.
+delay the margins did not budget for makes), and holds the depth for ``guard_hold``. The tilt
+integrators wait until the peg is ``tilt_depth`` in: at the entry a tilt row's lever arms are too
+short to tell a tilt from an offset. The law runs in the coordinates of
+:mod:`fbcc_ros.core.axis_insertion` (depth along the peg's axis, in the hole's estimated frame).
 
 **Excitation.** A dither per row, at its own frequency, of ``dither_force`` / k̂ (offsets) and
 ``dither_effort`` / k̂ (tilts), capped at ``dither_max_offset`` / ``dither_max_tilt``, keeps the
@@ -119,6 +122,10 @@ class RobustParams:
         lateral_lead, tilt_lead: The most an offset [m] or tilt [rad] command may lead the
             measured pose: a contact's stiffness is unknown until the motion into it is seen,
             a ``loop_delay`` later, and an underestimate must not integrate far meanwhile.
+        tilt_depth: The depth [m] above which the tilt rows do not integrate. At the entry
+            their lever arms are too short to tell a tilt from an offset: on a hole whose top
+            face is tilted, the rim contact turned the peg the wrong way by degrees and it
+            jammed (docs/reproduction.md). The offsets, and the depth, still move there.
         offset_resolution, tilt_resolution: The smallest offset [m] and tilt [rad] the law
             resolves: each row's stiffness is at least its filtered noise over this, so noise
             alone cannot drive a row by more.
@@ -156,6 +163,7 @@ class RobustParams:
     tilt_resolution: float = 2e-4
     lateral_lead: float = 2e-5
     tilt_lead: float = 2e-3
+    tilt_depth: float = 2e-4
     F_ext_limit: float = 300.0
 
     POSITIVE: ClassVar[tuple[str, ...]] = (
@@ -186,6 +194,9 @@ class RobustParams:
         c = self.coupling_limit
         if isinstance(c, bool) or not isinstance(c, (int, float)) or not 0.0 <= c < 1.0:
             raise ConfigError("coupling_limit", c, "a number in [0, 1): 0 ignores the coupling")
+        t = self.tilt_depth
+        if isinstance(t, bool) or not isinstance(t, (int, float)) or not 0.0 <= t <= 5e-3:
+            raise ConfigError("tilt_depth", t, "a depth in [0, 0.005] m")
         if self.guard_backoff <= 1.0:
             raise ConfigError("guard_backoff", self.guard_backoff, "a factor > 1")
         guard_mod.GuardParams(self.guard_growth, self.guard_cycles, 1.0)  # checks those two
@@ -265,8 +276,8 @@ _N_MAIN = 43
  _P_NOISE_FZ, _P_BASE, _P_PER_DEPTH, _P_HOLE_DEPTH, _P_HOLE_RADIUS, _P_DT, _P_F0, _P_F1, _P_F2,
  _P_F3, _P_SU_X, _P_SU_Y, _P_SU_TX, _P_SU_TY, _P_MU0, _P_COUPLING, _P_GATE, _P_NFLOOR_X,
  _P_NFLOOR_Y, _P_NFLOOR_TX, _P_NFLOOR_TY, _P_G_MIN_X, _P_G_MIN_Y, _P_G_MIN_TX,
- _P_G_MIN_TY, _P_LEAD_X, _P_LEAD_T) = range(52)  # fmt: skip
-_N_PARAMS = 52
+ _P_G_MIN_TY, _P_LEAD_X, _P_LEAD_T, _P_TILT_DEPTH) = range(53)  # fmt: skip
+_N_PARAMS = 53
 
 
 class RobustFbcc:
@@ -418,6 +429,7 @@ class RobustFbcc:
         prm[_P_NFLOOR_X : _P_NFLOOR_TY + 1] = filtered / resolution
         prm[_P_G_MIN_X : _P_G_MIN_TY + 1] = p.guard_amplitude * filtered
         prm[_P_LEAD_X], prm[_P_LEAD_T] = p.lateral_lead, p.tilt_lead
+        prm[_P_TILT_DEPTH] = p.tilt_depth
         self._prm[dt] = prm
         return prm
 
@@ -519,7 +531,8 @@ def _robust_rows(
             v_d = (jac[3] * excess[r_d] - jac[1] * excess[r_t]) / det
             v_t = (jac[0] * excess[r_t] - jac[2] * excess[r_d]) / det
             m[_C_INT + ident.ROWS[r_d]] += prm[_P_WC] * v_d * dt
-            m[_C_INT + ident.ROWS[r_t]] += prm[_P_WC] * v_t * dt
+            if depth >= prm[_P_TILT_DEPTH]:  # at the entry a tilt row cannot tell tilt
+                m[_C_INT + ident.ROWS[r_t]] += prm[_P_WC] * v_t * dt
         for j in range(4):
             f = ident.ROWS[j]
             k_used = k_row[j]

@@ -340,3 +340,26 @@ def test_every_robust_parameter_changes_the_commands(name: str) -> None:
     base = RobustParams(**needs)  # type: ignore[arg-type]
     changed = dataclasses.replace(base, **{name: value})
     assert not np.array_equal(_commands(base), _commands(changed)), name
+
+
+def test_the_tilt_rows_wait_until_the_peg_is_in() -> None:
+    """A stiff part (60 GPa, μ 0.47; the controller knows only the nominal pair) in a hole
+    tilted by 1.3°/0.5° and displaced ~0.1 mm: at the entry the rim contact on the tilted top
+    face reads as a tilt the wrong way. Integrated from the first touch, it turned the peg 3° the
+    wrong way until it jammed at the force limit; held until the peg is tilt_depth in, the part
+    assembles."""
+    sc = validate({"geometry": {"hole_radius": 5.05e-3, "peg_radius": 5.04e-3,
+                                "hole_depth": 0.01, "base_thickness": 0.005, "friction": 0.3,
+                                "stiffness": 1.84e8},
+                   "initial": {"dx": -8.9036e-5, "dy": -9.9252e-5, "theta_x": -0.023299,
+                               "theta_y": -0.009224}})  # fmt: skip
+    true = dataclasses.replace(sc.geometry, hole_radius=0.0050490749, peg_radius=0.0050394623,
+                               friction=0.4704, stiffness=5.983e10)  # fmt: skip
+    outcomes = {}
+    for depth in (RobustParams().tilt_depth, 0.0):
+        with_depth = dataclasses.replace(sc, params=RobustParams(tilt_depth=depth))
+        outcome, _ = simulate(with_depth, "fbcc", geometries=[true], record=False)
+        outcomes[depth] = outcome.summary(0)
+    held, at_once = outcomes[RobustParams().tilt_depth], outcomes[0.0]
+    assert held["success"] and held["tilt_misadjustment"] < math.radians(0.2), held
+    assert at_once["force_limited"] and at_once["tilt_misadjustment"] > math.radians(2.0), at_once
