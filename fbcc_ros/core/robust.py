@@ -108,7 +108,9 @@ class RobustParams:
         depth_bandwidth: Largest ω_l of the depth loop [rad/s] (:func:`design`).
         depth_lead: Longest lead of the depth command over the measured depth, beyond
             ``loop_delay``, in seconds of insertion speed [s].
-        fz_back_off: Axial force above which the insertion backs off [N].
+        fz_back_off: Axial force above which the insertion backs off [N]: above the largest
+            push-in the law is asked to make (the studies admit 2/3 of ``F_ext_limit``, 200 N;
+            backing off at 200 N itself left such parts hovering short of the depth).
         guard_growth, guard_cycles: :class:`fbcc_ros.core.guard.GuardParams`; the guard's
             minimum amplitude is ``guard_amplitude`` times the row's filtered noise.
         guard_amplitude: See above (dimensionless).
@@ -151,7 +153,7 @@ class RobustParams:
     tilt_effort: float = 3.0
     depth_bandwidth: float = 50.0
     depth_lead: float = 0.01
-    fz_back_off: float = 200.0
+    fz_back_off: float = 250.0
     guard_growth: float = 0.9
     guard_cycles: int = 8
     guard_amplitude: float = 40.0
