@@ -149,7 +149,7 @@ class RobustParams:
     dither_effort: float = 2.0
     dither_max_offset: float = 2e-6
     dither_max_tilt: float = 2e-4
-    offset_force: float = 15.0
+    offset_force: float = 40.0
     tilt_effort: float = 3.0
     depth_bandwidth: float = 50.0
     depth_lead: float = 0.01

