@@ -16,6 +16,12 @@ its batch), ``summary.json`` (success rate with its 95 % Wilson interval, percen
 metrics, the goals of the robustness study with the measured figures, every failure with what
 reproduces it), ``histograms.png`` and, when k is drawn, ``stiffness.png`` (success and peak Fz
 against k).
+
+    fbcc-montecarlo SCENARIO.yaml --trials 10000 ... --out DIR --trial 2653 [5412 ...]
+
+replays those trials of the same study (the same arguments) instead of running it: only their
+batches are simulated, and DIR/trial_N receives what ``fbcc-sim`` writes for one run
+(``summary.json``, ``trajectory.csv``, ``trajectories.png``, ``planes.png``), per law.
 """
 
 from __future__ import annotations
@@ -38,6 +44,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from fbcc_ros.cli.common import out_dir
+from fbcc_ros.cli.sim import SUMMARY_HEADER, summary_line, write_run
 from fbcc_ros.core import scenario as scenario_io
 from fbcc_ros.core.contact import FEATURE_NAMES
 from fbcc_ros.core.control import LAWS
@@ -47,6 +54,7 @@ from fbcc_ros.core.montecarlo import (
     BATCH,
     Trials,
     draw_trials,
+    replay_trial,
     run_montecarlo,
     wilson_interval,
 )
@@ -234,6 +242,25 @@ def _range(parser: argparse.ArgumentParser, flag: str, value: list[float] | None
     return lo, hi
 
 
+def replay(parser: argparse.ArgumentParser, sc: scenario_io.Scenario, laws: list[str],
+           trials: Trials, indices: list[int], out: Path) -> int:  # fmt: skip
+    """``--trial``: each trial's run per law, written as fbcc-sim writes one."""
+    for index in indices:
+        if not 0 <= index < len(trials):
+            parser.error(f"--trial {index} is not allowed: expected a trial of the study, "
+                         f"0 to {len(trials) - 1} (--trials {len(trials)})")  # fmt: skip
+    print(SUMMARY_HEADER)
+    for index in indices:
+        runs = [(law, replay_trial(sc, law, trials, index)) for law in laws]
+        folder = out / f"trial_{index}"
+        folder.mkdir(exist_ok=True)
+        write_run(runs, folder)
+        for law, res in runs:
+            print(summary_line(f"trial {index} {law}", res.summary))
+    print(f"wrote {out}/trial_N/ for {len(indices)} trial(s)")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="fbcc-montecarlo", description=__doc__.split("\n\n")[0])
     parser.add_argument("scenario", type=Path, metavar="SCENARIO.yaml")
@@ -258,6 +285,9 @@ def main(argv: list[str] | None = None) -> int:
                         "(overrides the scenario's holder; fbcc_ros/core/holder.py)")
     parser.add_argument("--all-parts", action="store_true",
                         help="keep parts whose push-in force exceeds 2/3 of the force limit")
+    parser.add_argument("--trial", type=int, nargs="+", metavar="N",
+                        help="replay these trials of the study (same arguments) with their "
+                        "trajectories and figures, instead of running it")
     args = parser.parse_args(argv)
     for flag, value in (("--trials", args.trials), ("--workers", args.workers)):
         if value < 1:
@@ -288,6 +318,8 @@ def main(argv: list[str] | None = None) -> int:
                                                       stiffness_gpa[1] * 1e9),
         friction=friction, feasible_force=feasible,
     )  # fmt: skip
+    if args.trial:
+        return replay(parser, sc, laws, trials, args.trial, out)
     start = time.perf_counter()
     try:
         results = run_montecarlo(sc, laws, trials, workers=args.workers,

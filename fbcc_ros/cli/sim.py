@@ -65,6 +65,26 @@ def write_csv(runs: list[tuple[str, SimResult]], path: Path) -> Path:
     return path
 
 
+def write_run(runs: list[tuple[str, SimResult]], out: Path, plots: bool = True) -> None:
+    """``summary.json`` (one run's summary, or a mapping from run names to summaries),
+    ``trajectory.csv`` and, with ``plots``, ``trajectories.png`` and ``planes.png`` in out."""
+    summaries = {name: res.summary for name, res in runs}
+    doc = summaries[runs[0][0]] if len(runs) == 1 else summaries
+    (out / "summary.json").write_text(json.dumps(doc, indent=2) + "\n")
+    write_csv(runs, out / "trajectory.csv")
+    if plots:
+        series = [Series.simulated(name, res) for name, res in runs]
+        draw_trajectories(series, out / "trajectories.png")
+        draw_planes(series, out / "planes.png")
+
+
+#: The header of :func:`summary_line`'s columns.
+SUMMARY_HEADER = (
+    f"{'run':<28} {'success':>7} {'t_ins':>8} {'peak_Fz':>8} {'resid_F':>9} "
+    f"{'overshoot':>9} {'dx[µm]':>8} {'dy[µm]':>8} {'θx[°]':>7} {'θy[°]':>7}"
+)
+
+
 def summary_line(name: str, s: dict[str, Any]) -> str:
     t_ins = "-" if s["insertion_time"] is None else f"{s['insertion_time']:.3f}"
     f = s["final_features"]
@@ -90,17 +110,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"fbcc-sim: {exc}", file=sys.stderr)
         return 2
     elapsed = time.perf_counter() - start
+    write_run(runs, out, plots=not args.no_plots)
     summaries = {name: res.summary for name, res in runs}
-    doc = summaries[runs[0][0]] if len(runs) == 1 else summaries
-    (out / "summary.json").write_text(json.dumps(doc, indent=2) + "\n")
-    write_csv(runs, out / "trajectory.csv")
-    if not args.no_plots:
-        series = [Series.simulated(name, res) for name, res in runs]
-        draw_trajectories(series, out / "trajectories.png")
-        draw_planes(series, out / "planes.png")
     simulated = sum(res.scenario.duration for _, res in runs)
-    print(f"{'run':<28} {'success':>7} {'t_ins':>8} {'peak_Fz':>8} {'resid_F':>9} "
-          f"{'overshoot':>9} {'dx[µm]':>8} {'dy[µm]':>8} {'θx[°]':>7} {'θy[°]':>7}")  # fmt: skip
+    print(SUMMARY_HEADER)
     for name, s in summaries.items():
         print(summary_line(name, s))
     print(f"{len(runs)} run(s), {simulated:.1f} s simulated in {elapsed:.2f} s; wrote {out}/")

@@ -33,7 +33,7 @@ from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.mapping_study import perturbed
 from fbcc_ros.core.parallel import run_tasks
 from fbcc_ros.core.scenario import Scenario
-from fbcc_ros.core.simulation import Outcome, simulate
+from fbcc_ros.core.simulation import Outcome, SimResult, Trajectory, simulate, state_sequence
 
 DEFAULT_MAX_OFFSET = 1e-4  # [m]
 DEFAULT_MAX_TILT = math.radians(2.0)  # [rad]
@@ -122,6 +122,27 @@ def _run_part(sc: Scenario, law: str, trials: Trials, seed: int) -> Outcome:
         sc, law, initial=trials.initial, geometries=trials.geometries, record=False, seed=seed
     )
     return outcome
+
+
+def replay_trial(sc: Scenario, law: str, trials: Trials, index: int,
+                 batch: int = BATCH) -> SimResult:  # fmt: skip
+    """Trial ``index`` of a study again, with its full trajectory: its batch is simulated with
+    the batch's noise seed (the noise of a lockstep batch is drawn for all its rows at once),
+    and the trial's row kept. The result's scenario carries the trial's true part and deviation;
+    its summary is the study's row for that trial."""
+    if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(trials):
+        raise ConfigError("trial", index, f"an index in [0, {len(trials) - 1}] of the study")
+    j, row = divmod(index, batch)
+    part = trials.part(slice(j * batch, min((j + 1) * batch, len(trials))))
+    outcome, traj = simulate(sc, law, initial=part.initial, geometries=part.geometries,
+                             record=True, seed=sc.seed + j)  # fmt: skip
+    assert traj is not None  # record=True
+    arrays = (getattr(traj, f.name) for f in dataclasses.fields(traj))
+    one = Trajectory(*(a if a.ndim == 1 else a[:, row : row + 1] for a in arrays))
+    true = dataclasses.replace(sc, geometry=part.geometries[row], initial=part.initial[row])
+    summary = outcome.summary(row)
+    summary["state_sequence"] = state_sequence(one, true.geometry)
+    return SimResult(true, law, summary, one)
 
 
 def concat(outcomes: Sequence[Outcome]) -> Outcome:

@@ -105,6 +105,29 @@ def test_montecarlo_draws_materials_lists_failures_and_judges_the_goals(tmp_path
     assert (tmp_path / "stiffness.png").stat().st_size > 10_000
 
 
+def test_montecarlo_replays_a_trial_of_a_study(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--trial N with the study's arguments writes that trial's run as fbcc-sim does, with the
+    study's figures for it; a trial outside the study is refused."""
+    study = [str(SCENARIOS / "robust_clearance.yaml"), "--trials", "5", "--workers", "1",
+             "--laws", "fbcc", "--stiffness-gpa", "1", "100", "--seed", "6"]  # fmt: skip
+    assert montecarlo.main([*study, "--out", str(tmp_path / "study")]) == 0
+    with (tmp_path / "study" / "trials.csv").open() as f:
+        row = list(csv.DictReader(f))[3]
+    assert montecarlo.main([*study, "--out", str(tmp_path / "again"), "--trial", "3"]) == 0
+    folder = tmp_path / "again" / "trial_3"
+    summary = json.loads((folder / "summary.json").read_text())
+    assert summary["peak_fz"] == pytest.approx(float(row["peak_fz"]), rel=1e-3)
+    assert summary["success"] == bool(int(row["success"]))
+    assert (folder / "trajectories.png").stat().st_size > 10_000
+    assert (folder / "trajectory.csv").exists()
+    assert not (tmp_path / "again" / "trials.csv").exists()  # the study is not run again
+    with pytest.raises(SystemExit) as exc:
+        montecarlo.main([*study, "--out", str(tmp_path / "bad"), "--trial", "5"])
+    assert exc.value.code == 2 and "--trial 5" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize(
     "flags", [["--stiffness-gpa", "10", "1"], ["--friction", "0", "0.5"], ["--seed", "-1"]]
 )

@@ -10,7 +10,7 @@ import pytest
 
 from fbcc_ros.cli.common import paper_scenario
 from fbcc_ros.core.errors import ConfigError
-from fbcc_ros.core.montecarlo import draw_trials, run_montecarlo, wilson_interval
+from fbcc_ros.core.montecarlo import draw_trials, replay_trial, run_montecarlo, wilson_interval
 from fbcc_ros.core.scenario import validate
 from fbcc_ros.core.simulation import _Metrics, run, simulate
 
@@ -116,6 +116,27 @@ def test_montecarlo_is_the_same_at_any_worker_count() -> None:
     two = run_montecarlo(sc, ["fbcc"], trials, workers=2, batch=4)["fbcc"]
     np.testing.assert_array_equal(one.peak_fz, two.peak_fz)
     assert len(one.success) == 6
+
+
+def test_a_replayed_trial_is_the_studys_row_with_its_trajectory() -> None:
+    """Trial 5 of a study in batches of 4 (the second batch, its second row): replayed alone it
+    has the study's metrics exactly, the noise of its batch, and its own part and deviation."""
+    sc = validate({**paper_scenario("clearance"), "duration": 1.0})
+    trials = draw_trials(sc.geometry, 7, seed=3, stiffness=(1e8, 1e10))
+    study = run_montecarlo(sc, ["fbcc"], trials, workers=1, batch=4)["fbcc"]
+    again = replay_trial(sc, "fbcc", trials, 5, batch=4)
+    expected = study.summary(5)
+    for key, value in expected.items():
+        assert again.summary[key] == value, key
+    assert again.trajectory.features.shape[1] == 1
+    np.testing.assert_array_equal(again.trajectory.features[-1, 0],
+                                  study.final_features[5])  # fmt: skip
+    assert again.scenario.geometry == trials.geometries[5]
+    np.testing.assert_array_equal(again.scenario.initial, trials.initial[5])
+    other = replay_trial(sc, "fbcc", trials, 5, batch=3)  # another batch, other noise
+    assert other.summary["peak_fz"] != expected["peak_fz"]
+    with pytest.raises(ConfigError, match="trial"):
+        replay_trial(sc, "fbcc", trials, 7)
 
 
 def test_trials_spread_within_their_bounds() -> None:
