@@ -257,7 +257,7 @@ def replay(parser: argparse.ArgumentParser, sc: scenario_io.Scenario, laws: list
         write_run(runs, folder)
         for law, res in runs:
             print(summary_line(f"trial {index} {law}", res.summary))
-    print(f"wrote {out}/trial_N/ for {len(indices)} trial(s)")
+    print("wrote " + ", ".join(f"{out}/trial_{index}/" for index in indices))
     return 0
 
 

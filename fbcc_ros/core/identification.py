@@ -100,7 +100,9 @@ class ContactEstimate:
 
     Attributes:
         stiffness: Local stiffness of the rows (dx, dy, theta_x, theta_y) as the law uses it:
-            [N/m, N/m, N/rad, N/rad] in units of ``A(l) F`` (bounded, released slowly).
+            [N/m, N/m, N/rad, N/rad] in units of ``A(l) F`` (bounded, released slowly; the
+            robust law raises a tilt row further to its share of the coupling, see
+            :mod:`fbcc_ros.core.robust`).
         raw_stiffness: The least-squares diagonal of J before the floor and release (may be
             <= 0 when the data say nothing).
         coupling: Off-diagonal of J per row: d u_dx/d theta_y, d u_dy/d theta_x [N/rad],

@@ -29,10 +29,20 @@ integrators wait until the peg is ``tilt_depth`` in: at the entry a tilt row's l
 short to tell a tilt from an offset. The law runs in the coordinates of
 :mod:`fbcc_ros.core.axis_insertion` (depth along the peg's axis, in the hole's estimated frame).
 
+**Coupled tilt row.** In a tight stiff fit a tilt step moves the plane's offset row far more
+than its own: the tilt row's identified slope is noise about zero while ∂u_d/∂θ is 1e4 N/rad, so
+at the floor's gain the tilt integrates at tens of degrees a second and wedges the peg. The tilt
+row's stiffness in Ĵ is therefore at least ``|∂u_d/∂θ| U_θ / U_d`` (the fitted coupling, ``U`` as
+under Depth): a tilt step then moves the offset row's effort ``u_d / U_d`` no faster than
+``ω_c`` times the tilt row's own effort.
+
 **Excitation.** A dither per row, at its own frequency, of ``dither_force`` / k̂ (offsets) and
 ``dither_effort`` / k̂ (tilts), capped at ``dither_max_offset`` / ``dither_max_tilt``, keeps the
 identification excited; it is on only in contact and while inserting (once the depth is reached
-the peg is left still, its last estimate held).
+the peg is left still, its last estimate held). Its amplitude follows that on/off target through
+a first-order lag of one period of the slowest dither, so switching it never steps the command:
+cut at an arbitrary phase, a tilt dither of ``dither_max_tilt`` (1 µm at the rim) pushes a tight
+stiff fit into hundreds of newtons.
 
 **Depth.** The insertion advances at ``insertion.speed`` while the lateral loops are settled and
 slows, holds or backs off while they are not: with the lateral effort
@@ -269,7 +279,8 @@ _C_BACKOFF = 36  # gain back-off factors of the 4 rows (>= 1)
 _C_TRIPS = 40  # guard trips so far
 _C_STOPPED = 41  # 1 once the force limit stopped the insertion
 _C_ELAPSED = 42  # insertion time while not stopped
-_N_MAIN = 43
+_C_DITHER = 43  # dither amplitudes of the 4 rows, as faded in and out
+_N_MAIN = 47
 
 # Indices into the parameter vector of the kernel.
 (_P_WC, _P_DB_X, _P_DB_Y, _P_DB_TX, _P_DB_TY, _P_FORGET, _P_KMIN, _P_RELEASE, _P_DITH_F,
@@ -278,8 +289,8 @@ _N_MAIN = 43
  _P_NOISE_FZ, _P_BASE, _P_PER_DEPTH, _P_HOLE_DEPTH, _P_HOLE_RADIUS, _P_DT, _P_F0, _P_F1, _P_F2,
  _P_F3, _P_SU_X, _P_SU_Y, _P_SU_TX, _P_SU_TY, _P_MU0, _P_COUPLING, _P_GATE, _P_NFLOOR_X,
  _P_NFLOOR_Y, _P_NFLOOR_TX, _P_NFLOOR_TY, _P_G_MIN_X, _P_G_MIN_Y, _P_G_MIN_TX,
- _P_G_MIN_TY, _P_LEAD_X, _P_LEAD_T, _P_TILT_DEPTH) = range(53)  # fmt: skip
-_N_PARAMS = 53
+ _P_G_MIN_TY, _P_LEAD_X, _P_LEAD_T, _P_TILT_DEPTH, _P_DITH_FADE) = range(54)  # fmt: skip
+_N_PARAMS = 54
 
 
 class RobustFbcc:
@@ -432,6 +443,8 @@ class RobustFbcc:
         prm[_P_G_MIN_X : _P_G_MIN_TY + 1] = p.guard_amplitude * filtered
         prm[_P_LEAD_X], prm[_P_LEAD_T] = p.lateral_lead, p.tilt_lead
         prm[_P_TILT_DEPTH] = p.tilt_depth
+        # fade of the dither: a first-order lag of one period of the slowest dither
+        prm[_P_DITH_FADE] = 1.0 - math.exp(-min(DITHER_FRACTIONS))
         self._prm[dt] = prm
         return prm
 
@@ -456,6 +469,7 @@ def _robust_rows(
     backoff = np.ones(4)
     excess = np.zeros(4)
     jac = np.zeros(4)
+    fitted = np.zeros(4)  # the plane's Jacobian with its fitted coupling, not shrunk
     k_row = np.zeros(4)
     for i in range(w.shape[0]):
         m = main[i]
@@ -520,7 +534,11 @@ def _robust_rows(
                 excess[j] = -excess[j]
         for plane in range(2):
             r_d, r_t = ident.PLANES[plane]
+            ident.used_matrix(idn[i, plane], plane, math.inf, fitted)
             ident.used_matrix(idn[i, plane], plane, prm[_P_COUPLING], jac)
+            # k_θ >= |∂u_d/∂θ| U_θ / U_d: a tilt step then moves the offset row's effort no
+            # faster than ω_c times the tilt's own (module doc, coupled tilt row)
+            jac[3] = max(jac[3], abs(fitted[1]) * prm[_P_U_T] / prm[_P_U_X])
             k_row[r_d], k_row[r_t] = jac[0], jac[3]
             if prm[_P_GATE] > 0.0:
                 # plane gate: a plane whose rows are both inside the dead band is not in
@@ -543,7 +561,10 @@ def _robust_rows(
                 cap = prm[_P_DITH_MAX_X] if j < 2 else prm[_P_DITH_MAX_T]
                 size = prm[_P_DITH_F] if j < 2 else prm[_P_DITH_E]
                 amp = min(size / k_used, cap)
-            dither = amp * math.sin(prm[_P_F0 + j] * m[_C_T])
+            # faded in and out over about a dither period: switched at an arbitrary phase, it
+            # would step the command by up to its amplitude (a tight stiff fit at the depth)
+            m[_C_DITHER + j] += prm[_P_DITH_FADE] * (amp - m[_C_DITHER + j])
+            dither = m[_C_DITHER + j] * math.sin(prm[_P_F0 + j] * m[_C_T])
             # the command leads the measured pose by at most the lateral lead: what a contact
             # of unknown stiffness may be pushed before its force is seen (loop_delay later)
             lead = prm[_P_LEAD_X] if j < 2 else prm[_P_LEAD_T]

@@ -299,15 +299,15 @@ _CHANGED: dict[str, tuple[object, dict[str, object]]] = {
     "phase_margin": (math.radians(40.0), {"loop_delay": 0.05}),
     "loop_delay": (0.03, {}),
     "stiffness_min": (1e11, {}),
-    "guard_cycles": (4, {}),
-    "guard_amplitude": (4000.0, {"guard_cycles": 4}),  # above the trips' amplitude
-    "guard_backoff": (2.0, {"guard_cycles": 4}),
-    "guard_hold": (0.05, {"guard_cycles": 4}),
+    "guard_cycles": (2, {}),  # the default's 8 half-waves do not trip on this run
+    "guard_amplitude": (4000.0, {"guard_cycles": 2}),  # above the trips' amplitude
+    "guard_backoff": (2.0, {"guard_cycles": 2}),
+    "guard_hold": (0.05, {"guard_cycles": 2}),
     "fz_back_off": (5.0, {}),  # below the run's peak Fz (9.3 N)
     "F_ext_limit": (15.0, {"fz_back_off": 10.0}),
     "coupling_limit": (0.5, {}),
     "plane_gate": (False, {}),
-    "guard_growth": (2.0, {"guard_cycles": 4}),  # only a growing oscillation counts
+    "guard_growth": (2.0, {"guard_cycles": 2}),  # only a growing oscillation counts
 }
 #: Parameters that act only when the commands take effect late (the delayed plant).
 _DELAYED = {"depth_lead": 1e-4, "lateral_lead": 1.0, "tilt_lead": 1e-4}
@@ -345,10 +345,9 @@ def test_every_robust_parameter_changes_the_commands(name: str) -> None:
 def test_the_tilt_rows_wait_until_the_peg_is_in() -> None:
     """A stiff part (60 GPa, μ 0.47; the controller knows only the nominal pair) in a hole
     tilted by 1.3°/0.5° and displaced ~0.1 mm: at the entry the rim contact on the tilted top
-    face reads as a tilt the wrong way. Integrated from the first touch, it turned the peg the
-    wrong way (0.8°) until it jammed at the force limit (716 N); held until the peg is
-    tilt_depth in, the part assembles (its tilt still grows by 0.5° in its initial direction on
-    the face, whose tilt is not estimated before the peg is in: docs/reproduction.md)."""
+    face reads as a tilt the wrong way. Integrated from the first touch, the tilt rows turned
+    the peg 0.16° further into its initial tilt (with the tilt rows at the noise floor's gain,
+    0.8°, until it jammed at the force limit); held until the peg is tilt_depth in, 0.015°."""
     sc = validate({"geometry": {"hole_radius": 5.05e-3, "peg_radius": 5.04e-3,
                                 "hole_depth": 0.01, "base_thickness": 0.005, "friction": 0.3,
                                 "stiffness": 1.84e8},
@@ -363,6 +362,54 @@ def test_the_tilt_rows_wait_until_the_peg_is_in() -> None:
         outcomes[depth] = outcome.summary(0)
     held, at_once = outcomes[RobustParams().tilt_depth], outcomes[0.0]
     assert held["success"] and not held["force_limited"], held
-    assert at_once["force_limited"], at_once
-    assert held["tilt_misadjustment"] < at_once["tilt_misadjustment"]
+    assert held["tilt_misadjustment"] < 0.2 * at_once["tilt_misadjustment"], (held, at_once)
 
+
+
+def test_tight_stiff_pairs_are_not_wedged_by_the_tilt_rows() -> None:
+    """32 stiff pairs (20-100 GPa, μ 0.1-0.5) within 0.2-0.5 µm of line-to-line, offset by
+    50-100 µm and tilted by 0.3-2° in both planes: there the tilt rows' own slope is noise and
+    a tilt step moves the offset row 1e4 N/rad, so at the floor's gain the tilt rows wedged 1-4
+    of every 32 such parts into the force limit. Scaled by the coupling, none reaches it."""
+    sc = validate({"geometry": {"hole_radius": 5.05e-3, "peg_radius": 5.04e-3,
+                                "hole_depth": 0.01, "base_thickness": 0.005, "friction": 0.3,
+                                "stiffness": 1.84e8},
+                   "initial": {"dx": 0.0, "dy": 0.0, "theta_x": 0.0, "theta_y": 0.0}})  # fmt: skip
+    rng = np.random.default_rng(0)
+    n = 32
+    parts = [dataclasses.replace(sc.geometry, stiffness=10 ** rng.uniform(10.3, 11),
+                                 friction=rng.uniform(0.1, 0.5), peg_radius=5.04e-3,
+                                 hole_radius=5.04e-3 + rng.uniform(0.2e-6, 0.5e-6))
+             for _ in range(n)]  # fmt: skip
+    sign = rng.choice([-1.0, 1.0], (n, 4))
+    initial = np.zeros((n, 5))
+    initial[:, :2] = sign[:, :2] * rng.uniform(50e-6, 100e-6, (n, 2))
+    initial[:, 3:] = sign[:, 2:] * rng.uniform(0.005, 0.035, (n, 2))
+    outcome, _ = simulate(sc, "fbcc", initial=initial, geometries=parts, record=False)
+    assert not outcome.force_limited.any(), np.flatnonzero(outcome.force_limited)
+    assert outcome.success.all(), np.flatnonzero(~outcome.success)
+
+def test_the_dither_fades_out_when_the_depth_is_reached() -> None:
+    """A law pressed on a contact (Fz 5 N, no lateral force) and followed by an ideal robot: at
+    the depth the dither stops, and its amplitude fades over about a period instead of vanishing
+    at whatever phase it had (a step of up to 2e-4 rad of tilt, 1 µm at the rim: hundreds of
+    newtons in a tight stiff fit). No sample then moves a command more than the dither itself
+    did per sample."""
+    law = RobustFbcc(_pair("clearance", 1e9), RobustParams(tilt_depth=0.0))
+    dt = 1e-3
+    x = np.zeros(5)
+    x[2] = 0.0013  # the depth is then reached at a phase where no dither is near zero
+    law.reset(x)
+    commands = []
+    for _ in range(2600):
+        x = law.step(np.array([0.0, 0.0, 5.0, 0.0, 0.0]), x, dt)
+        commands.append(x.copy())
+    c = np.array(commands)
+    at_depth = int(np.argmax(c[:, 2] >= 0.01))
+    assert 0 < at_depth < 2400
+    steps = np.abs(np.diff(c[:, [0, 1, 3, 4]], axis=0))
+    dithering = steps[at_depth - 200 : at_depth - 1].max(axis=0)
+    after = steps[at_depth - 1 :].max(axis=0)
+    assert np.all(dithering > 0) and np.all(after <= dithering), (after, dithering)
+    late = np.ptp(c[at_depth + 300 :, [0, 1, 3, 4]], axis=0)
+    assert np.all(late < 0.01 * dithering), late  # and it has faded out
