@@ -201,7 +201,8 @@ def identify_planes(
     """Advance both planes' identifiers of one trial (s: (2, N_STATE)) by one sample.
 
     d_rows: increments of the measured features dx, dy, theta_x, theta_y; d_depth of l;
-    d_u: of the direction rows (same order). ``release`` is exp(-dt / T_release); ``backoff``
+    d_u: of the direction rows (same order). ``release`` is exp(-dt / T_release) (1 holds the
+    used stiffness from falling); ``backoff``
     (4,) >= 1 multiplies the used stiffness (the oscillation guard's back-off). The used
     stiffness of a row is max(max(raw diagonal, floor) * backoff, previous * release).
     """
@@ -218,6 +219,17 @@ def identify_planes(
             raw = s[plane, _THETA + k * N_REG + k] / ROW_SCALE[r]
             held = s[plane, _USED + k] * release
             s[plane, _USED + k] = max(max(raw, floor[r]) * backoff[r], held)
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def back_off(s: FloatArray, row: int, factor: float) -> None:
+    """Multiply the used stiffness of ``row`` (0-3: dx, dy, theta_x, theta_y) by ``factor``
+    now, whatever the fit says: the oscillation guard's back-off acts on the gain in use even
+    when the fit is held or has fallen below it. s: one trial's state (2, N_STATE)."""
+    for plane in range(2):
+        for k in range(2):
+            if PLANES[plane][k] == row:
+                s[plane, _USED + k] *= factor
 
 
 @numba.njit(cache=True)  # type: ignore[misc]

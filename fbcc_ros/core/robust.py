@@ -22,9 +22,10 @@ sensor noise, which the paper's ``x_d_limit`` is for). With ``Ĵ = J`` each deco
 ``L(s) = ω_c H_f(s) G_robot(s) / s``, with the margins :func:`loop_margins` computes; an error
 ``k_j / k̂_j = ρ`` scales the loop gain by ρ, so the gain margin is the largest stiffness
 underestimate the loop survives. The identification errs stiff (floor, slow release) and the
-oscillation guard (:mod:`fbcc_ros.core.guard`) backs a row's gain off by ``guard_backoff`` when its
-filtered response oscillates without decaying (a growing oscillation, or a limit cycle such as a
-delay the margins did not budget for makes), and holds the depth for ``guard_hold``. The tilt
+oscillation guard (:mod:`fbcc_ros.core.guard`) backs a row's gain off by ``guard_backoff`` (the
+stiffness in use, at once, whatever the fit says) when its filtered response oscillates without
+decaying (a growing oscillation, or a limit cycle such as a delay the margins did not budget for
+makes), and holds the depth for ``guard_hold``. The tilt
 integrators wait until the peg is ``tilt_depth`` in: at the entry a tilt row's lever arms are too
 short to tell a tilt from an offset. The law runs in the coordinates of
 :mod:`fbcc_ros.core.axis_insertion` (depth along the peg's axis, in the hole's estimated frame).
@@ -38,11 +39,13 @@ under Depth): a tilt step then moves the offset row's effort ``u_d / U_d`` no fa
 
 **Excitation.** A dither per row, at its own frequency, of ``dither_force`` / k̂ (offsets) and
 ``dither_effort`` / k̂ (tilts), capped at ``dither_max_offset`` / ``dither_max_tilt``, keeps the
-identification excited; it is on only in contact and while inserting (once the depth is reached
-the peg is left still, its last estimate held). Its amplitude follows that on/off target through
-a first-order lag of one period of the slowest dither, so switching it never steps the command:
-cut at an arbitrary phase, a tilt dither of ``dither_max_tilt`` (1 µm at the rim) pushes a tight
-stiff fit into hundreds of newtons.
+identification excited; it is on only in contact and while inserting. Its amplitude follows that
+on/off target through a first-order lag of one period of the slowest dither, so switching it
+never steps the command: cut at an arbitrary phase, a tilt dither of ``dither_max_tilt`` (1 µm
+at the rim) pushes a tight stiff fit into hundreds of newtons. Once the depth is reached the
+peg is left still and the estimate is no longer released (the fit may still raise it): with
+nothing exciting the fit its slopes drift with the noise, and a released estimate is a raised
+gain, which rang stiff parts' lateral loops into 100-N oscillations at the depth.
 
 **Depth.** The insertion advances at ``insertion.speed`` while the lateral loops are settled and
 slows, holds or backs off while they are not: with the lateral effort
@@ -280,7 +283,8 @@ _C_TRIPS = 40  # guard trips so far
 _C_STOPPED = 41  # 1 once the force limit stopped the insertion
 _C_ELAPSED = 42  # insertion time while not stopped
 _C_DITHER = 43  # dither amplitudes of the 4 rows, as faded in and out
-_N_MAIN = 47
+_C_REACHED = 47  # 1 once the depth command has reached the depth
+_N_MAIN = 48
 
 # Indices into the parameter vector of the kernel.
 (_P_WC, _P_DB_X, _P_DB_Y, _P_DB_TX, _P_DB_TY, _P_FORGET, _P_KMIN, _P_RELEASE, _P_DITH_F,
@@ -494,9 +498,13 @@ def _robust_rows(
         ident.floor_row(depth, prm[_P_KMIN], floor)
         for j in range(4):  # the noise floor: no gain that noise alone could drive further
             floor[j] = max(floor[j], prm[_P_NFLOOR_X + j])
+        if m[_C_LCMD] >= prm[_P_DEPTH]:
+            m[_C_REACHED] = 1.0
+        # at the depth nothing excites the fit: it may raise the estimate, not release it
+        release = prm[_P_RELEASE] if m[_C_REACHED] == 0.0 else 1.0
         identify = contact and m[_C_HAVE_PREV] > 0.0
         ident.identify_planes(idn[i], d_rows, x[i, 2] - m[_C_PREV_X + 2], d_u, identify,
-                              prm[_P_FORGET], floor, prm[_P_RELEASE], backoff)  # fmt: skip
+                              prm[_P_FORGET], floor, release, backoff)  # fmt: skip
         for f in range(5):
             m[_C_PREV_X + f] = x[i, f]
             m[_C_PREV_U + f] = u[f]
@@ -516,6 +524,7 @@ def _robust_rows(
             if guard_mod.guard_step(grd[i, j], xf[f], prm[_P_G_GROWTH], int(prm[_P_G_CYCLES]),
                                     prm[_P_G_MIN_X + j]):  # fmt: skip
                 m[_C_BACKOFF + j] *= prm[_P_G_BACKOFF]
+                ident.back_off(idn[i], j, prm[_P_G_BACKOFF])
                 m[_C_TRIPS] += 1.0
                 m[_C_HOLD] = m[_C_T] + prm[_P_G_HOLD]
             if abs(xf[f]) / scale > effort:

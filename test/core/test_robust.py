@@ -413,3 +413,39 @@ def test_the_dither_fades_out_when_the_depth_is_reached() -> None:
     assert np.all(dithering > 0) and np.all(after <= dithering), (after, dithering)
     late = np.ptp(c[at_depth + 300 :, [0, 1, 3, 4]], axis=0)
     assert np.all(late < 0.01 * dithering), late  # and it has faded out
+
+
+def test_the_estimate_is_not_released_once_the_depth_is_reached() -> None:
+    """An interference part (0.3 GPa) inserted by an ideal robot, with the default sensor noise:
+    at the depth the dither stops and nothing excites the fit, so its slopes drift with the
+    noise. The estimate in use must not fall with them (a fallen estimate is a raised gain:
+    it rang the lateral loops of stiff parts into 100-N oscillations at the depth)."""
+    ph = _pair("interference", 3e8)
+    law = RobustFbcc(ph, RobustParams())
+    rng = np.random.default_rng(0)
+    noise = np.array(RobustParams().sensor_noise)
+    x = np.array([2e-5, -1e-5, 0.0, 0.0, 0.0])
+    law.reset(x)
+    at_depth = None
+    for _ in range(4000):
+        x = law.step(ph.response(x) + noise * rng.standard_normal(5), x, DT)
+        if at_depth is None and x[2] >= 0.01:
+            at_depth = law.estimate().stiffness.copy()
+    assert at_depth is not None
+    later = law.estimate().stiffness
+    assert np.all(later >= at_depth), (later, at_depth)
+
+
+def test_a_guard_back_off_acts_on_the_stiffness_in_use() -> None:
+    """The back-off multiplies the used stiffness of the row it names, and only that row, even
+    where the fit has fallen far below it (its gain in use is what rings)."""
+    floor = np.array([1e6, 2e6, 1e2, 2e2])
+    for row in range(4):
+        state = np.zeros((2, ident.N_STATE))
+        ident.reset_planes(state[None], 100.0 * floor)  # in use: 100 x the floor, fit at 0
+        before = ident.estimate_of(state, 0.3, True).stiffness
+        ident.back_off(state, row, 4.0)
+        after = ident.estimate_of(state, 0.3, True).stiffness
+        expected = before.copy()
+        expected[row] *= 4.0
+        np.testing.assert_allclose(after, expected)
