@@ -103,6 +103,9 @@ def summarise(outcome: Outcome) -> dict[str, Any]:
         "trials": n, "successes": k, "success_rate": k / n, "success_ci95": [lo, hi],
         "force_limited": int(outcome.force_limited.sum()),
         "guard_tripped": int((outcome.guard_trips > 0).sum()),
+        # a compliant holder's equilibria the solver left unconverged (holder.py, Solver)
+        "holder_unconverged_steps": {"trials": int((outcome.holder_unconverged > 0).sum()),
+                                     "max": int(outcome.holder_unconverged.max(initial=0))},
     }  # fmt: skip
     for name, scale, unit in _METRICS:
         v = getattr(outcome, name) * scale

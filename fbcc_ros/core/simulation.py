@@ -45,6 +45,9 @@ Metrics (summary keys of DESIGN §4), per trial:
     (dx, dy, l, theta_x, theta_y) at the end, true values.
 ``state_sequence``
     the contact states (Fig. 4) the features went through, ``"XOZ/YOZ"``, repeats collapsed.
+``holder_unconverged`` (extra)
+    with a compliant holder, the steps whose equilibrium the solver left unconverged (used as
+    its best point: :mod:`fbcc_ros.core.holder`, Solver); 0 with a rigid one.
 
 All quantities are the true ones (from the model, before the sensor), not the measured ones.
 """
@@ -99,6 +102,7 @@ class Outcome:
     final_features: FloatArray
     force_limited: np.ndarray
     guard_trips: FloatArray  # the oscillation guard's trips (robust law; 0 otherwise)
+    holder_unconverged: FloatArray  # steps whose holder equilibrium did not converge
 
     def summary(self, i: int = 0) -> dict[str, Any]:
         """The DESIGN §4 summary of trial i (without the state sequence), JSON-ready."""
@@ -117,6 +121,7 @@ class Outcome:
             "force_limited": bool(self.force_limited[i]),
             "peak_force": float(self.peak_force[i]),
             "guard_trips": int(self.guard_trips[i]),
+            "holder_unconverged": int(self.holder_unconverged[i]),
         }
 
 
@@ -159,7 +164,8 @@ class _Metrics:
         self.final = x[-1].copy()
         self.assembled_at_end = assembled[-1]
 
-    def outcome(self, force_limited: np.ndarray, trips: FloatArray | None = None) -> Outcome:
+    def outcome(self, force_limited: np.ndarray, trips: FloatArray | None = None,
+                unconverged: FloatArray | None = None) -> Outcome:  # fmt: skip
         n_tail = self.steps - self.resid_from
         sign0 = np.sign(self.theta0)
         # past zero, opposite to the initial sign; any excursion when the initial tilt is zero
@@ -180,6 +186,7 @@ class _Metrics:
             final_features=self.final,
             force_limited=force_limited,
             guard_trips=np.zeros(len(self.final)) if trips is None else trips,
+            holder_unconverged=np.zeros(len(self.final)) if unconverged is None else unconverged,
         )
 
 
@@ -220,6 +227,7 @@ def simulate(
     pose = np.zeros((n, 5))  # the robot's pose as features of the believed hole
     law.reset(pose)
     metrics = _Metrics(sc, dev)
+    unconverged = np.zeros(n)  # steps whose holder equilibrium the solver did not converge
     chunks: list[tuple[np.ndarray, ...]] = []
     buf_x, buf_w, buf_m, buf_c = (np.empty((_CHUNK, n, 5)) for _ in range(4))
     steps = sc.steps
@@ -234,6 +242,7 @@ def simulate(
                 w = contact.response(x_touch)
             else:  # the peg deflects in its holder until the holder balances the contact
                 settled = holder.step(x_touch, contact)
+                unconverged += ~settled.converged
                 w = settled.wrench
                 x = x + settled.delta
             measured = w + sc.bias + sc.noise * rng.standard_normal((n, 5))
@@ -245,7 +254,7 @@ def simulate(
         if record:
             chunks.append((t, buf_x[:kk].copy(), buf_w[:kk].copy(), buf_m[:kk].copy(),
                            buf_c[:kk].copy()))  # fmt: skip
-    outcome = metrics.outcome(law.stopped.copy(), law.trips.copy())
+    outcome = metrics.outcome(law.stopped.copy(), law.trips.copy(), unconverged)
     if not record:
         return outcome, None
     traj = Trajectory(*(np.concatenate([c[i] for c in chunks]) for i in range(5)))

@@ -3,6 +3,7 @@ metric definitions, and batches that agree with single runs."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 
 from fbcc_ros.cli.common import paper_scenario
 from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.holder import Holder
 from fbcc_ros.core.montecarlo import draw_trials, replay_trial, run_montecarlo, wilson_interval
 from fbcc_ros.core.scenario import validate
 from fbcc_ros.core.simulation import _Metrics, run, simulate
@@ -213,3 +215,19 @@ def test_wilson_interval() -> None:
     assert hi == 1.0 and lo == pytest.approx(0.99617, abs=2e-5)  # (z^2/n) / (1 + z^2/n)
     lo, hi = wilson_interval(50, 100)
     assert lo == pytest.approx(0.4038, abs=1e-3) and hi == pytest.approx(0.5962, abs=1e-3)
+
+
+def test_unconverged_holder_steps_are_counted_not_lost() -> None:
+    """A stiff, nearly line-to-line pair (20 GPa, 0.3 µm of clearance) behind a soft grasp: the
+    holder's solver leaves some steps at the contact's edge unconverged, and the outcome says
+    how many (a rigid holder solves nothing and counts none)."""
+    sc = validate({"geometry": {"hole_radius": 5.0403e-3, "peg_radius": 5.04e-3,
+                                "hole_depth": 0.01, "base_thickness": 0.005, "friction": 0.3,
+                                "stiffness": 2e10},
+                   "initial": {"dx": 5e-5, "dy": -3e-5, "theta_x": 0.005,
+                               "theta_y": -0.01}})  # fmt: skip
+    rigid, _ = simulate(sc, "fbcc", record=False)
+    soft = dataclasses.replace(sc, holder=Holder(2.5e4, 30.0))
+    compliant, _ = simulate(soft, "fbcc", record=False)
+    assert rigid.summary(0)["holder_unconverged"] == 0
+    assert 0 < compliant.summary(0)["holder_unconverged"] < sc.steps
