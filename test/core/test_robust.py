@@ -280,6 +280,23 @@ def test_a_stated_loop_delay_keeps_the_insertion_stable(delay_ms: int) -> None:
         assert not run(RobustParams())[0]
 
 
+@pytest.mark.parametrize(("fit", "k"), [("interference", 1.84e8), ("clearance", 1e10)])
+def test_an_unstated_delay_slows_the_depth_and_does_not_shake_it(fit: str, k: float) -> None:
+    """80 ms of command delay behind gains designed for the default 10 ms: the depth command
+    leads the measured depth by at most v (loop_delay + 10 ms), so the insertion slows to that
+    share of the speed instead of running ahead of what it sees, and the depth loop does not
+    oscillate (its command hardly ever goes back)."""
+    delay = 0.08
+    _, depth, _, peak, commands = _behind_a_delay(
+        _pair(fit, k), np.array([5e-5, -3e-5, 0.0, 0.0, 0.0]), RobustParams(), 80, keep=True
+    )
+    p = RobustParams()
+    bound = 0.005 * 4.0 * (p.loop_delay + 0.01) / (delay + 0.005)  # [m] in the 4 s run
+    assert peak < 300.0
+    assert bound - 1e-3 < depth <= bound + 1e-4, (depth, bound)
+    backwards = -np.diff(commands[:, 2]).clip(max=0.0).sum()
+    assert backwards < 2e-4, backwards
+
 def test_a_stiff_part_behind_a_slow_loop_is_not_pushed_blind() -> None:
     """10 GPa behind 50 ms of command delay: until the motion into the contact is seen, the
     identification has nothing to say and the stiffness floor is soft, so an unbounded
