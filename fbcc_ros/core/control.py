@@ -38,7 +38,8 @@ from fbcc_ros.core.axis_insertion import AxisInsertion
 from fbcc_ros.core.contact import FloatArray, PegHole, as_rows
 from fbcc_ros.core.errors import ConfigError, InputError, require_number
 from fbcc_ros.core.filters import second_order_row
-from fbcc_ros.core.robust import RobustFbcc, RobustParams
+from fbcc_ros.core.robust import RobustFbcc
+from fbcc_ros.core.robust_params import RobustParams
 from fbcc_ros.core.segmentation import direct_row
 
 #: Table I of the paper: (M_dp, K_dp, M_do, K_do, M_dl, K_dl) per label; D_d = sqrt(M_d K_d).

@@ -65,7 +65,8 @@ def dead_band(x: ArrayLike, band: ArrayLike) -> FloatArray:
 @numba.njit(cache=True)  # type: ignore[misc]
 def second_order_row(c: FloatArray, x: FloatArray, v: FloatArray, u: FloatArray) -> None:
     """One trial's five second-order filters, in place, discretised exactly for a zero-order
-    hold (``control.ComplianceFilter.discretise``, ``robust.RobustParams.filter_coefficients``):
+    hold (``control.ComplianceFilter.discretise``,
+    ``robust_params.RobustParams.filter_coefficients``):
     ``[x, v](k+1) = Phi [x, v](k) + Gamma u(k)``, c rows Phi00, Phi01, Phi10, Phi11, Gamma0,
     Gamma1 per column."""
     for j in range(5):

@@ -19,9 +19,11 @@ the rows coupled (a two-point contact, where an offset step moves the tilt row a
 step does) Ĵ⁻¹ finishes the decoupling; with no coupling it is ``ω_c / k̂_j`` per row; and
 ``dz`` a dead zone of ``dead_band`` noise deviations (so the integrators do not random-walk on
 sensor noise, which the paper's ``x_d_limit`` is for). With ``Ĵ = J`` each decoupled loop is
-``L(s) = ω_c H_f(s) G_robot(s) / s``, with the margins :func:`loop_margins` computes; an error
-``k_j / k̂_j = ρ`` scales the loop gain by ρ, so the gain margin is the largest stiffness
-underestimate the loop survives. The identification errs stiff (floor, slow release) and the
+``L(s) = ω_c H_f(s) G_robot(s) / s``, with the margins
+:func:`~fbcc_ros.core.loop_design.loop_margins` computes; an error ``k_j / k̂_j = ρ`` scales the
+loop gain by ρ, so the gain margin is the largest stiffness underestimate the loop survives. The
+identification is meant to err stiff (floor, slow release; on stiff interference contacts it
+errs soft instead, ρ up to ~5: ``docs/reproduction.md``) and the
 oscillation guard (:mod:`fbcc_ros.core.guard`) backs a row's gain off by ``guard_backoff`` (the
 stiffness in use, at once, whatever the fit says) when its filtered response oscillates without
 decaying (a growing oscillation, or a limit cycle such as a delay the margins did not budget for
@@ -66,204 +68,26 @@ simulator's batch and the controller's single row alike.
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numba
 import numpy as np
-import scipy.linalg
 from numpy.typing import ArrayLike
 
 from fbcc_ros.core import guard as guard_mod
 from fbcc_ros.core import identification as ident
 from fbcc_ros.core.axis_insertion import AxisInsertion
 from fbcc_ros.core.contact import FloatArray, PegHole, as_rows
-from fbcc_ros.core.errors import ConfigError, InputError, require_number
+from fbcc_ros.core.errors import InputError
 from fbcc_ros.core.filters import second_order_row
+from fbcc_ros.core.loop_design import design
+from fbcc_ros.core.robust_params import RobustParams
 from fbcc_ros.core.segmentation import direct_row
 
 #: Dither frequencies of the rows dx, dy, theta_x, theta_y as fractions of the control rate
 #: (61, 53, 47 and 41 Hz at 1 kHz): distinct, not harmonics of each other, >= 16 samples a period.
 DITHER_FRACTIONS = (0.061, 0.053, 0.047, 0.041)
-#: Default sensor noise the law assumes (standard deviations of Fx, Fy, Fz, Mx, My) [N, N·m].
-DEFAULT_SENSOR_NOISE = (0.05, 0.05, 0.05, 0.002, 0.002)
-
-
-@dataclasses.dataclass(frozen=True)
-class RobustParams:
-    """The robust configuration (the default of ``controller.params``). SI units.
-
-    Attributes:
-        bandwidth: Largest ω_c, the crossover of every lateral loop [rad/s]; the law runs with
-            less when ``loop_delay`` leaves less than ``phase_margin`` (:func:`design`).
-        loop_delay: The cell's delay from a command to its effect in the measured features
-            and wrench [s]: the robot's servo and drivers, the nodes' queues; the margins budget
-            for it. A lateral loop of a cell with more oscillates, which the guard catches; the
-            depth loop is not guarded, and the approach into a stiff contact is not slowed for
-            it (docs/reproduction.md).
-        phase_margin: The phase margin every loop keeps with ``loop_delay`` [rad].
-        filter_frequency: ω_f of the response filter H_f [rad/s].
-        filter_damping: ζ of H_f.
-        dead_band: Dead zone of the filtered rows, in filtered-noise standard deviations.
-        sensor_noise: Standard deviations the law assumes for (Fx, Fy, Fz, Mx, My) [N, N·m].
-        identification_window: Memory of the RLS [s].
-        stiffness_min: The softest contact to expect, eq. 8's k [Pa]: the floor of the
-            identified stiffness (the highest gain the law will use).
-        release: Time constant with which a used stiffness may fall [s].
-        dither_force: Dither amplitude of the offset rows, as a force [N].
-        dither_effort: Dither amplitude of the tilt rows, in units of A(l) F [N].
-        dither_max_offset: Cap of the offset dither [m].
-        dither_max_tilt: Cap of the tilt dither [rad].
-        offset_force: U of the offset rows: the lateral force at which the insertion holds [N].
-        tilt_effort: U of the tilt rows [N, units of A(l) F].
-        depth_bandwidth: Largest ω_l of the depth loop [rad/s] (:func:`design`).
-        depth_lead: Longest lead of the depth command over the measured depth, beyond
-            ``loop_delay``, in seconds of insertion speed [s].
-        fz_back_off: Axial force above which the insertion backs off [N]: above the largest
-            push-in the law is asked to make (the studies admit 2/3 of ``F_ext_limit``, 200 N;
-            backing off at 200 N itself left such parts hovering short of the depth).
-        guard_growth, guard_cycles: :class:`fbcc_ros.core.guard.GuardParams`; the guard's
-            minimum amplitude is ``guard_amplitude`` times the row's filtered noise.
-        guard_amplitude: See above (dimensionless).
-        guard_backoff: Factor by which a tripped row's gain falls (> 1).
-        guard_hold: How long the depth holds after a trip [s].
-        coupling_limit: How much of a plane's identified coupling the law inverts:
-            |J01 J10| <= coupling_limit J00 J11 (0: the rows alone, as FBCC's A(l)).
-        plane_gate: A plane whose two rows are both inside their dead band holds (nothing to
-            sense); one that is not integrates both rows whole, so that a weak tilt row is not
-            eaten by its dead band while its plane is in contact.
-        lateral_lead, tilt_lead: The most an offset [m] or tilt [rad] command may lead the
-            measured pose: a contact's stiffness is unknown until the motion into it is seen,
-            a ``loop_delay`` later, and an underestimate must not integrate far meanwhile.
-        tilt_depth: The depth [m] above which the tilt rows do not integrate. At the entry
-            their lever arms are too short to tell a tilt from an offset: on a hole whose top
-            face is tilted, the rim contact turned the peg the wrong way by degrees and it
-            jammed (docs/reproduction.md). The offsets, and the depth, still move there.
-        offset_resolution, tilt_resolution: The smallest offset [m] and tilt [rad] the law
-            resolves: each row's stiffness is at least its filtered noise over this, so noise
-            alone cannot drive a row by more.
-        F_ext_limit: Force limit [N] on |(Fx, Fy, Fz)|: the insertion stops for good above it
-            (Algorithm 1's loop condition), as in :class:`fbcc_ros.core.control.ComplianceParams`.
-    """
-
-    bandwidth: float = 30.0
-    loop_delay: float = 0.01
-    phase_margin: float = math.radians(50.0)
-    filter_frequency: float = 150.0
-    filter_damping: float = 0.7
-    dead_band: float = 3.0
-    sensor_noise: tuple[float, float, float, float, float] = DEFAULT_SENSOR_NOISE
-    identification_window: float = 0.1
-    stiffness_min: float = 1e8
-    release: float = 0.3
-    dither_force: float = 0.3
-    dither_effort: float = 2.0
-    dither_max_offset: float = 2e-6
-    dither_max_tilt: float = 2e-4
-    offset_force: float = 40.0
-    tilt_effort: float = 3.0
-    depth_bandwidth: float = 50.0
-    depth_lead: float = 0.01
-    fz_back_off: float = 250.0
-    guard_growth: float = 0.9
-    guard_cycles: int = 8
-    guard_amplitude: float = 40.0
-    guard_backoff: float = 4.0
-    guard_hold: float = 0.2
-    coupling_limit: float = 0.0
-    plane_gate: bool = True
-    offset_resolution: float = 1e-6
-    tilt_resolution: float = 2e-4
-    lateral_lead: float = 2e-5
-    tilt_lead: float = 2e-3
-    tilt_depth: float = 2e-4
-    F_ext_limit: float = 300.0
-
-    POSITIVE: ClassVar[tuple[str, ...]] = (
-        "bandwidth", "filter_frequency", "filter_damping", "dead_band", "identification_window",
-        "stiffness_min", "release", "dither_force", "dither_effort", "dither_max_offset",
-        "dither_max_tilt", "offset_force", "tilt_effort", "depth_bandwidth", "depth_lead",
-        "fz_back_off", "guard_amplitude", "guard_backoff", "guard_hold", "F_ext_limit",
-        "offset_resolution", "tilt_resolution", "phase_margin", "lateral_lead", "tilt_lead",
-    )  # fmt: skip
-
-    def __post_init__(self) -> None:
-        for name in self.POSITIVE:
-            require_number(name, getattr(self, name), positive=True)
-        noise = self.sensor_noise
-        if not (
-            isinstance(noise, (tuple, list))
-            and len(noise) == 5
-            and all(isinstance(v, (int, float)) and math.isfinite(v) and v > 0 for v in noise)
-        ):
-            raise ConfigError("sensor_noise", noise, "five standard deviations > 0 [N, N·m]")
-        d = self.loop_delay
-        if isinstance(d, bool) or not isinstance(d, (int, float)) or not 0.0 <= d <= 1.0:
-            raise ConfigError("loop_delay", d, "a delay in [0, 1] s")
-        if not self.phase_margin < math.pi / 2:
-            raise ConfigError("phase_margin", self.phase_margin, "< pi/2 rad (90°)")
-        if not isinstance(self.plane_gate, bool):
-            raise ConfigError("plane_gate", self.plane_gate, "true or false")
-        c = self.coupling_limit
-        if isinstance(c, bool) or not isinstance(c, (int, float)) or not 0.0 <= c < 1.0:
-            raise ConfigError("coupling_limit", c, "a number in [0, 1): 0 ignores the coupling")
-        t = self.tilt_depth
-        if isinstance(t, bool) or not isinstance(t, (int, float)) or not 0.0 <= t <= 5e-3:
-            raise ConfigError("tilt_depth", t, "a depth in [0, 0.005] m")
-        if self.guard_backoff <= 1.0:
-            raise ConfigError("guard_backoff", self.guard_backoff, "a factor > 1")
-        guard_mod.GuardParams(self.guard_growth, self.guard_cycles, 1.0)  # checks those two
-        if self.fz_back_off >= self.F_ext_limit:
-            raise ConfigError(
-                "fz_back_off", self.fz_back_off, f"< F_ext_limit = {self.F_ext_limit} N"
-            )
-
-    @classmethod
-    def names(cls) -> tuple[str, ...]:
-        return tuple(f.name for f in dataclasses.fields(cls))
-
-    @classmethod
-    def from_mapping(cls, values: Mapping[str, Any], field: str = "params") -> RobustParams:
-        """From a YAML mapping (no ``label``): every key a field of this class."""
-        unknown = sorted(set(values) - set(cls.names()))
-        if unknown:
-            raise ConfigError(
-                f"{field}.{unknown[0]}", values[unknown[0]],
-                f"a robust-law parameter ({', '.join(cls.names())}), or label: N with Table I "
-                "gains (M_dp, K_dp, D_dp, M_do, K_do, D_do, ...)",
-            )  # fmt: skip
-        changes = dict(values)
-        if isinstance(changes.get("sensor_noise"), list):
-            changes["sensor_noise"] = tuple(changes["sensor_noise"])
-        try:
-            return cls(**changes)
-        except ConfigError as exc:
-            raise ConfigError(f"{field}.{exc.field}", exc.value, exc.allowed) from None
-
-    def filter_coefficients(self, dt: float) -> FloatArray:
-        """H_f discretised exactly for a zero-order hold at period dt: rows Phi00, Phi01,
-        Phi10, Phi11, Gamma0, Gamma1 (the layout of ``filters.second_order_row``), all 5 columns
-        alike."""
-        w, z = self.filter_frequency, self.filter_damping
-        aug = np.array([[0.0, 1.0, 0.0], [-w * w, -2 * z * w, w * w], [0.0, 0.0, 0.0]])
-        e = scipy.linalg.expm(aug * dt)
-        col = np.array([e[0, 0], e[0, 1], e[1, 0], e[1, 1], e[0, 2], e[1, 2]])
-        return np.repeat(col[:, None], 5, axis=1)
-
-    def check_rate(self, dt: float) -> None:
-        """Refuse a period that does not resolve the filter, the loops or the dither."""
-        if not (math.isfinite(dt) and dt > 0):
-            raise InputError("dt", dt, "a control period > 0 in s")
-        fastest = max(self.filter_frequency, self.bandwidth, self.depth_bandwidth)
-        if fastest * dt > 1.0:
-            raise ConfigError(
-                "dt", dt, f"<= {1.0 / fastest:.3g} s (a rate >= {fastest:.3g} Hz): the robust "
-                "law's fastest rate (filter_frequency, bandwidth, depth_bandwidth) needs "
-                "|s| dt <= 1",
-            )  # fmt: skip
-
 
 # Columns of the per-trial state of the robust kernel (besides the identifier's and guard's).
 _C_X = 0  # filtered rows ū (5, depth unused)
@@ -608,102 +432,3 @@ def _load_step() -> None:
     _robust_rows(rows, rows, np.zeros(_N_PARAMS), np.zeros((6, 5)), np.zeros((0, _N_MAIN)),
                  np.zeros((0, 2, ident.N_STATE)), np.zeros((0, 4, guard_mod.N_STATE)),
                  rows)  # fmt: skip
-
-
-@dataclasses.dataclass(frozen=True)
-class Margins:
-    """Stability margins of one linearised lateral loop (see :func:`loop_margins`).
-
-    Attributes:
-        phase_margin: [rad] at the crossover with k̂ = k.
-        crossover: The crossover frequency [rad/s].
-        gain_margin: The largest factor k / k̂ with which the loop stays stable.
-    """
-
-    phase_margin: float
-    crossover: float
-    gain_margin: float
-
-
-def loop_transfer(
-    params: RobustParams,
-    dt: float,
-    lag: float,
-    z: ArrayLike,
-    *,
-    delay: float = 0.0,
-    bandwidth: float | None = None,
-) -> np.ndarray:
-    """The sampled loop of one lateral row at z (scalar or array), with k̂ = k (module doc):
-    integrator ω_c dt / (z - 1), the filter H_f (ZOH), the robot's first-order lag of time
-    constant ``lag`` (ZOH; 0: none), one period from the sample to the command, and ``delay``
-    [s] more, in whole periods. ``bandwidth`` overrides ω_c."""
-    z = np.asarray(z, dtype=complex)
-    c = params.filter_coefficients(dt)[:, 0]
-    # first component of (z I - Phi)^-1 Gamma, the 2x2 inverse written out
-    det = (z - c[0]) * (z - c[3]) - c[1] * c[2]
-    h_f = ((z - c[3]) * c[4] + c[1] * c[5]) / det
-    a = math.exp(-dt / lag) if lag > 0 else 0.0
-    robot = (1 - a) / (z - a)
-    w_c = params.bandwidth if bandwidth is None else bandwidth
-    periods = 1 + round(delay / dt)
-    return w_c * dt / (z - 1) * h_f * robot / z**periods  # type: ignore[no-any-return]
-
-
-def loop_margins(
-    params: RobustParams,
-    dt: float,
-    lag: float = 0.005,
-    *,
-    delay: float = 0.0,
-    bandwidth: float | None = None,
-) -> Margins:
-    """Phase margin, crossover and gain margin of the linearised lateral loop (frequency sweep
-    of :func:`loop_transfer` on the unit circle)."""
-    omegas = np.geomspace(1e-2, math.pi / dt, 4000)
-    l_values = loop_transfer(params, dt, lag, np.exp(1j * omegas * dt), delay=delay,
-                             bandwidth=bandwidth)  # fmt: skip
-    mag, ph = np.abs(l_values), np.unwrap(np.angle(l_values))
-    i_c = int(np.argmax(mag < 1.0))
-    crossover = float(omegas[i_c])
-    phase_margin = float(math.pi + ph[i_c])
-    below = np.flatnonzero(ph < -math.pi)
-    gain_margin = float(1.0 / mag[below[0]]) if below.size else math.inf
-    return Margins(phase_margin, crossover, gain_margin)
-
-
-@dataclasses.dataclass(frozen=True)
-class Design:
-    """The bandwidths the law runs with at one period (see :func:`design`).
-
-    Attributes:
-        bandwidth: ω_c of the lateral loops [rad/s].
-        depth_bandwidth: ω_l of the depth loop [rad/s].
-        margins: Of the lateral loop with ``loop_delay`` (and no robot lag beyond it).
-    """
-
-    bandwidth: float
-    depth_bandwidth: float
-    margins: Margins
-
-
-def design(params: RobustParams, dt: float) -> Design:
-    """The largest lateral crossover up to ``bandwidth`` whose sampled loop, delayed by
-    ``loop_delay``, keeps ``phase_margin`` (bisection on :func:`loop_margins`), and the depth
-    loop's: an integrator behind the same delay has the phase margin
-    ``π/2 - ω_l (loop_delay + dt)``, so ``ω_l <= (π/2 - margin) / (loop_delay + dt)``."""
-    delay, want = params.loop_delay, params.phase_margin
-
-    def margin(w: float) -> float:
-        return loop_margins(params, dt, 0.0, delay=delay, bandwidth=w).phase_margin
-
-    low, high = 0.0, params.bandwidth
-    if margin(high) < want:
-        for _ in range(40):
-            mid = 0.5 * (low + high)
-            low, high = (mid, high) if margin(mid) >= want else (low, mid)
-        w_c = low
-    else:
-        w_c = high
-    w_l = min(params.depth_bandwidth, (math.pi / 2 - want) / (delay + dt))
-    return Design(w_c, w_l, loop_margins(params, dt, 0.0, delay=delay, bandwidth=w_c))

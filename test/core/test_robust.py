@@ -17,7 +17,9 @@ from fbcc_ros.core.control import ComplianceParams, make_law, params_from_mappin
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.features import true_features
 from fbcc_ros.core.guard import GuardParams, OscillationGuard
-from fbcc_ros.core.robust import RobustFbcc, RobustParams, design, loop_margins, loop_transfer
+from fbcc_ros.core.loop_design import design, loop_margins, loop_transfer
+from fbcc_ros.core.robust import RobustFbcc
+from fbcc_ros.core.robust_params import RobustParams
 from fbcc_ros.core.scenario import validate
 from fbcc_ros.core.segmentation import apply_direction
 from fbcc_ros.core.simulation import simulate

@@ -13,7 +13,7 @@ import pytest
 
 from fbcc_ros.cli.common import paper_scenario
 from fbcc_ros.core.errors import ConfigError
-from fbcc_ros.core.robust import RobustParams
+from fbcc_ros.core.robust_params import RobustParams
 from fbcc_ros.core.scenario import DEFAULT_NOISE, load, validate
 
 ROOT = Path(__file__).resolve().parents[2]

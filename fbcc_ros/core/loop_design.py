@@ -1,0 +1,112 @@
+"""The robust law's gain design: the margins of its linearised lateral loop (integrator,
+filter H_f, robot lag, delays) and the bandwidths that keep the stated phase margin with the
+stated ``loop_delay`` (:mod:`fbcc_ros.core.robust`, module doc)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from fbcc_ros.core.robust_params import RobustParams
+
+
+@dataclasses.dataclass(frozen=True)
+class Margins:
+    """Stability margins of one linearised lateral loop (see :func:`loop_margins`).
+
+    Attributes:
+        phase_margin: [rad] at the crossover with k̂ = k.
+        crossover: The crossover frequency [rad/s].
+        gain_margin: The largest factor k / k̂ with which the loop stays stable.
+    """
+
+    phase_margin: float
+    crossover: float
+    gain_margin: float
+
+
+def loop_transfer(
+    params: RobustParams,
+    dt: float,
+    lag: float,
+    z: ArrayLike,
+    *,
+    delay: float = 0.0,
+    bandwidth: float | None = None,
+) -> np.ndarray:
+    """The sampled loop of one lateral row at z (scalar or array), with k̂ = k (module doc):
+    integrator ω_c dt / (z - 1), the filter H_f (ZOH), the robot's first-order lag of time
+    constant ``lag`` (ZOH; 0: none), one period from the sample to the command, and ``delay``
+    [s] more, in whole periods. ``bandwidth`` overrides ω_c."""
+    z = np.asarray(z, dtype=complex)
+    c = params.filter_coefficients(dt)[:, 0]
+    # first component of (z I - Phi)^-1 Gamma, the 2x2 inverse written out
+    det = (z - c[0]) * (z - c[3]) - c[1] * c[2]
+    h_f = ((z - c[3]) * c[4] + c[1] * c[5]) / det
+    a = math.exp(-dt / lag) if lag > 0 else 0.0
+    robot = (1 - a) / (z - a)
+    w_c = params.bandwidth if bandwidth is None else bandwidth
+    periods = 1 + round(delay / dt)
+    return w_c * dt / (z - 1) * h_f * robot / z**periods  # type: ignore[no-any-return]
+
+
+def loop_margins(
+    params: RobustParams,
+    dt: float,
+    lag: float = 0.005,
+    *,
+    delay: float = 0.0,
+    bandwidth: float | None = None,
+) -> Margins:
+    """Phase margin, crossover and gain margin of the linearised lateral loop (frequency sweep
+    of :func:`loop_transfer` on the unit circle)."""
+    omegas = np.geomspace(1e-2, math.pi / dt, 4000)
+    l_values = loop_transfer(params, dt, lag, np.exp(1j * omegas * dt), delay=delay,
+                             bandwidth=bandwidth)  # fmt: skip
+    mag, ph = np.abs(l_values), np.unwrap(np.angle(l_values))
+    i_c = int(np.argmax(mag < 1.0))
+    crossover = float(omegas[i_c])
+    phase_margin = float(math.pi + ph[i_c])
+    below = np.flatnonzero(ph < -math.pi)
+    gain_margin = float(1.0 / mag[below[0]]) if below.size else math.inf
+    return Margins(phase_margin, crossover, gain_margin)
+
+
+@dataclasses.dataclass(frozen=True)
+class Design:
+    """The bandwidths the law runs with at one period (see :func:`design`).
+
+    Attributes:
+        bandwidth: ω_c of the lateral loops [rad/s].
+        depth_bandwidth: ω_l of the depth loop [rad/s].
+        margins: Of the lateral loop with ``loop_delay`` (and no robot lag beyond it).
+    """
+
+    bandwidth: float
+    depth_bandwidth: float
+    margins: Margins
+
+
+def design(params: RobustParams, dt: float) -> Design:
+    """The largest lateral crossover up to ``bandwidth`` whose sampled loop, delayed by
+    ``loop_delay``, keeps ``phase_margin`` (bisection on :func:`loop_margins`), and the depth
+    loop's: an integrator behind the same delay has the phase margin
+    ``π/2 - ω_l (loop_delay + dt)``, so ``ω_l <= (π/2 - margin) / (loop_delay + dt)``."""
+    delay, want = params.loop_delay, params.phase_margin
+
+    def margin(w: float) -> float:
+        return loop_margins(params, dt, 0.0, delay=delay, bandwidth=w).phase_margin
+
+    low, high = 0.0, params.bandwidth
+    if margin(high) < want:
+        for _ in range(40):
+            mid = 0.5 * (low + high)
+            low, high = (mid, high) if margin(mid) >= want else (low, mid)
+        w_c = low
+    else:
+        w_c = high
+    w_l = min(params.depth_bandwidth, (math.pi / 2 - want) / (delay + dt))
+    return Design(w_c, w_l, loop_margins(params, dt, 0.0, delay=delay, bandwidth=w_c))
