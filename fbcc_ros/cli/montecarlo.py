@@ -103,7 +103,7 @@ def summarise(outcome: Outcome) -> dict[str, Any]:
         "trials": n, "successes": k, "success_rate": k / n, "success_ci95": [lo, hi],
         "force_limited": int(outcome.force_limited.sum()),
         "guard_tripped": int((outcome.guard_trips > 0).sum()),
-        # a compliant holder's equilibria the solver left unconverged (holder.py, Solver)
+        # a compliant holder's equilibria the solver left unconverged (holder_solver.py)
         "holder_unconverged_steps": {"trials": int((outcome.holder_unconverged > 0).sum()),
                                      "max": int(outcome.holder_unconverged.max(initial=0))},
     }  # fmt: skip

@@ -13,7 +13,7 @@ The plant, per trial:
   true radii; the peg touches nothing while its depth is <= 0;
 * **the holder** (scenario ``holder``, absent: rigid) is a spring at the grip point in series
   with the contact: each step the peg settles where the holder balances the contact
-  (:class:`fbcc_ros.core.holder.HolderSolver`), and the true features are that position;
+  (:class:`fbcc_ros.core.holder_solver.HolderSolver`), and the true features are that position;
 * **the sensor** adds its bias and white Gaussian noise; the dynamic compensation is taken as
   ideal apart from that bias (issue "dynamic compensation" models the rest).
 
@@ -47,7 +47,7 @@ Metrics (summary keys of DESIGN §4), per trial:
     the contact states (Fig. 4) the features went through, ``"XOZ/YOZ"``, repeats collapsed.
 ``holder_unconverged`` (extra)
     with a compliant holder, the steps whose equilibrium the solver left unconverged (used as
-    its best point: :mod:`fbcc_ros.core.holder`, Solver); 0 with a rigid one.
+    its best point: :mod:`fbcc_ros.core.holder_solver`); 0 with a rigid one.
 
 All quantities are the true ones (from the model, before the sensor), not the measured ones.
 """
@@ -65,7 +65,7 @@ from fbcc_ros.core.contact import FEATURE_NAMES, ContactBatch, FloatArray, PegHo
 from fbcc_ros.core.control import make_law
 from fbcc_ros.core.errors import ConfigError, FbccError
 from fbcc_ros.core.features import true_rows
-from fbcc_ros.core.holder import HolderSolver
+from fbcc_ros.core.holder_solver import HolderSolver
 from fbcc_ros.core.scenario import Scenario, validate
 from fbcc_ros.core.segmentation import feature_state
 

@@ -17,10 +17,9 @@ from fbcc_ros.core.holder import (
     PARALLEL_GRIPPER_ESTIMATE,
     Grip,
     Holder,
-    HolderSolver,
     grip_moments,
-    solve,
 )
+from fbcc_ros.core.holder_solver import HolderSolver, solve
 
 DEG = math.pi / 180
 FORCE_TOL, MOMENT_TOL = 1e-3, 1e-5  # the solver's default balance tolerances [N, N·m]
