@@ -468,3 +468,26 @@ def test_a_guard_back_off_acts_on_the_stiffness_in_use() -> None:
         expected = before.copy()
         expected[row] *= 4.0
         np.testing.assert_allclose(after, expected)
+
+
+@pytest.mark.parametrize("k", [1e8, 1e9])
+def test_the_loop_gain_on_a_study_interference_part_stays_inside_the_gain_margin(k: float) -> None:
+    """The identification errs soft on interference contacts (docs/reproduction.md: k / k̂ of
+    1.3-1.7 at 0.1-1 GPa, up to ~5 at 40 GPa): at the interference study's stiffnesses the loop
+    gain k / k̂ of the dx row, sampled through the insertion and at the depth, must stay below
+    the simulator plant's gain margin (the loop stays stable, if with less phase margin)."""
+    nominal = _pair("clearance", 1.84e8)
+    ph = PegHole(5.0398e-3, 5.04e-3, 0.01, 0.005, 0.2, k)  # 0.2 µm of interference
+    params = RobustParams()
+    law = RobustFbcc(nominal, params)
+    rng = np.random.default_rng(0)
+    noise = np.array(params.sensor_noise)
+    x = np.array([2e-5, -1e-5, 0.0, 0.004, -0.003])
+    law.reset(x)
+    ratios = []
+    for n in range(2600):
+        x = law.step(ph.response(x) + noise * rng.standard_normal(5), x, DT)
+        if n >= 800 and n % 200 == 0:  # from 4 mm in, and 0.6 s at the depth
+            ratios.append(_slope(ph, x, 0, 0, 1e-9) / law.estimate().stiffness[0])
+    margin = loop_margins(params, DT, 0.005, bandwidth=design(params, DT).bandwidth).gain_margin
+    assert 0.5 < min(ratios) and max(ratios) < margin, (np.round(ratios, 2), margin)
