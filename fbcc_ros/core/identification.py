@@ -233,14 +233,15 @@ def back_off(s: FloatArray, row: int, factor: float) -> None:
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
-def used_matrix(s: FloatArray, plane: int, max_coupling: float, out: FloatArray) -> None:
+def used_matrix(s: FloatArray, plane: int, max_coupling: float, out: FloatArray) -> float:
     """The plane's Jacobian J the law inverts, [[N/m, N/rad], [N/m, N/rad]]: the used diagonal
     and the fitted off-diagonal, the latter shrunk so that |J01 J10| <= max_coupling J00 J11
     (the determinant stays >= (1 - max_coupling) J00 J11 > 0). out: (4,) as J00, J01, J10,
-    J11; s the plane's state (N_STATE,)."""
+    J11; s the plane's state (N_STATE,). Returns the fitted J01 (d u_offset / d theta [N/rad])
+    before that shrinking."""
     r_d, r_t = PLANES[plane]
     out[0], out[3] = s[_USED], s[_USED + 1]
-    out[1] = s[_THETA + 1] / ROW_SCALE[r_t]  # d u_d / d theta
+    out[1] = fitted = s[_THETA + 1] / ROW_SCALE[r_t]  # d u_d / d theta
     out[2] = s[_THETA + N_REG] / ROW_SCALE[r_d]  # d u_theta / d d
     cross = abs(out[1] * out[2])
     limit = max_coupling * out[0] * out[3]
@@ -248,6 +249,7 @@ def used_matrix(s: FloatArray, plane: int, max_coupling: float, out: FloatArray)
         shrink = math.sqrt(limit / cross)
         out[1] *= shrink
         out[2] *= shrink
+    return fitted
 
 
 def estimate_of(state: FloatArray, friction: float, in_contact: bool) -> ContactEstimate:

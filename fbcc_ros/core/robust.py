@@ -297,7 +297,6 @@ def _robust_rows(
     backoff = np.ones(4)
     excess = np.zeros(4)
     jac = np.zeros(4)
-    fitted = np.zeros(4)  # the plane's Jacobian with its fitted coupling, not shrunk
     k_row = np.zeros(4)
     for i in range(w.shape[0]):
         m = main[i]
@@ -367,11 +366,10 @@ def _robust_rows(
                 excess[j] = -excess[j]
         for plane in range(2):
             r_d, r_t = ident.PLANES[plane]
-            ident.used_matrix(idn[i, plane], plane, math.inf, fitted)
-            ident.used_matrix(idn[i, plane], plane, prm[_P_COUPLING], jac)
+            coupling = ident.used_matrix(idn[i, plane], plane, prm[_P_COUPLING], jac)
             # k_θ >= |∂u_d/∂θ| U_θ / U_d: a tilt step then moves the offset row's effort no
             # faster than ω_c times the tilt's own (module doc, coupled tilt row)
-            jac[3] = max(jac[3], abs(fitted[1]) * prm[_P_U_T] / prm[_P_U_X])
+            jac[3] = max(jac[3], abs(coupling) * prm[_P_U_T] / prm[_P_U_X])
             k_row[r_d], k_row[r_t] = jac[0], jac[3]
             if prm[_P_GATE] > 0.0:
                 # plane gate: a plane whose rows are both inside the dead band is not in

@@ -473,7 +473,7 @@ def test_a_guard_back_off_acts_on_the_stiffness_in_use() -> None:
 @pytest.mark.parametrize("k", [1e8, 1e9])
 def test_the_loop_gain_on_a_study_interference_part_stays_inside_the_gain_margin(k: float) -> None:
     """The identification errs soft on interference contacts (docs/reproduction.md: k / k̂ of
-    1.3-1.7 at 0.1-1 GPa, up to ~5 at 40 GPa): at the interference study's stiffnesses the loop
+    1.3-1.8 at 0.1-1 GPa, up to ~5 at 40 GPa): at the interference study's stiffnesses the loop
     gain k / k̂ of the dx row, sampled through the insertion and at the depth, must stay below
     the simulator plant's gain margin (the loop stays stable, if with less phase margin)."""
     nominal = _pair("clearance", 1.84e8)

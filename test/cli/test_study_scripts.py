@@ -1,0 +1,26 @@
+"""The study scripts the docs name (scripts/studies/) run and print what the docs quote."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _run(*args: str) -> str:
+    done = subprocess.run([sys.executable, *args], cwd=ROOT, capture_output=True, text=True,
+                          timeout=300, check=True)  # fmt: skip
+    return done.stdout
+
+
+def test_stiff_batches_prints_one_line_per_batch() -> None:
+    out = _run("scripts/studies/stiff_batches.py", "tight", "--seed", "0", "--parts", "4",
+               "--set", "tilt_depth=0.0003")  # fmt: skip
+    assert out.startswith("tight seed 0: ") and "/4 assembled" in out, out
+
+
+def test_identification_gain_prints_the_four_stiffnesses() -> None:
+    lines = _run("scripts/studies/identification_gain.py").strip().splitlines()
+    assert [line.split()[0] for line in lines[1:]] == ["0.1", "1.0", "10.0", "40.0"], lines
