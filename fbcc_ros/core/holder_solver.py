@@ -25,9 +25,9 @@ tolerances (so that the holder's spring is the identity and "converged" means
 * rows that do not converge within ``max_iter`` iterations keep their best point and are
   flagged in ``converged``; nothing raises inside the iteration. At the edge of a stiff contact
   against a soft grasp that happens often, and the best point can be off balance by newtons
-  (``test_no_step_leaves_the_peg_deflected_against_nothing``'s setting: 77 % of the steps
-  unconverged, the lateral force of an unconverged one p99 3.5 N, at most 42 N; the simulator
-  uses them as they are).
+  (``test_no_step_leaves_the_peg_deflected_against_nothing``'s setting run over 16 pairs of
+  1500 steps, measured outside the tests: 77 % of the steps unconverged, the lateral force of
+  an unconverged one p99 3.5 N, at most 42 N; the simulator uses them as they are).
 
 For a :class:`ContactBatch` (or its bound ``response``) the iteration is compiled (numba) and
 calls the contact kernel one row at a time, so each row costs only the evaluations it needs; any
