@@ -73,3 +73,25 @@ def second_order_row(c: FloatArray, x: FloatArray, v: FloatArray, u: FloatArray)
         xj, vj = x[j], v[j]
         x[j] = c[0, j] * xj + c[1, j] * vj + c[4, j] * u[j]
         v[j] = c[2, j] * xj + c[3, j] * vj + c[5, j] * u[j]
+
+
+def notch_coefficients(omega: float, quality: float, dt: float) -> FloatArray:
+    """(b0, b1, a2) of a discrete notch at ``omega`` [rad/s] (a zero of gain exactly there,
+    bilinear transform prewarped to it) with the quality factor ``quality`` (centre over -3 dB
+    width): ``H(z) = (b0 + b1 z^-1 + b0 z^-2) / (1 + b1 z^-1 + a2 z^-2)``, ``K = tan(ω dt / 2)``,
+    ``b0 = (1 + K²) / n``, ``b1 = 2 (K² - 1) / n``, ``a2 = (1 - K / Q + K²) / n``,
+    ``n = 1 + K / Q + K²``."""
+    k = math.tan(0.5 * omega * dt)
+    norm = 1.0 + k / quality + k * k
+    return np.array([(1.0 + k * k) / norm, 2.0 * (k * k - 1.0) / norm,
+                     (1.0 - k / quality + k * k) / norm])  # fmt: skip
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def notch_step(b: FloatArray, s: FloatArray, x: float) -> float:
+    """One sample of the notch ``b`` (:func:`notch_coefficients`) with state ``s`` (2,), in
+    place (transposed direct form II); returns the output."""
+    y = b[0] * x + s[0]
+    s[0] = b[1] * x - b[1] * y + s[1]
+    s[1] = b[0] * x - b[2] * y
+    return y

@@ -1,16 +1,19 @@
 """The robust law's gain design: the margins of its linearised lateral loop (integrator,
-filter H_f, robot lag, delays) and the bandwidths that keep the stated phase margin with the
-stated ``loop_delay`` (:mod:`fbcc_ros.core.robust`, module doc)."""
+filter H_f, robot lag, delays) and of its depth loop (integrator, H_f, the dither notch,
+delays), and the bandwidths that keep the stated phase margin with the stated ``loop_delay``
+(:mod:`fbcc_ros.core.robust`, module doc)."""
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from fbcc_ros.core.robust_params import RobustParams
+from fbcc_ros.core.filters import notch_coefficients
+from fbcc_ros.core.robust_params import DITHER_FRACTIONS, NOTCH_QUALITY, RobustParams
 
 
 @dataclasses.dataclass(frozen=True)
@@ -42,15 +45,55 @@ def loop_transfer(
     constant ``lag`` (ZOH; 0: none), one period from the sample to the command, and ``delay``
     [s] more, in whole periods. ``bandwidth`` overrides ω_c."""
     z = np.asarray(z, dtype=complex)
-    c = params.filter_coefficients(dt)[:, 0]
-    # first component of (z I - Phi)^-1 Gamma, the 2x2 inverse written out
-    det = (z - c[0]) * (z - c[3]) - c[1] * c[2]
-    h_f = ((z - c[3]) * c[4] + c[1] * c[5]) / det
+    h_f = _filter_transfer(params, dt, z)
     a = math.exp(-dt / lag) if lag > 0 else 0.0
     robot = (1 - a) / (z - a)
     w_c = params.bandwidth if bandwidth is None else bandwidth
     periods = 1 + round(delay / dt)
     return w_c * dt / (z - 1) * h_f * robot / z**periods  # type: ignore[no-any-return]
+
+
+def _filter_transfer(params: RobustParams, dt: float, z: np.ndarray) -> np.ndarray:
+    """H_f (ZOH) at z: the first component of (z I - Phi)^-1 Gamma, the 2x2 inverse written
+    out."""
+    c = params.filter_coefficients(dt)[:, 0]
+    det = (z - c[0]) * (z - c[3]) - c[1] * c[2]
+    return ((z - c[3]) * c[4] + c[1] * c[5]) / det  # type: ignore[no-any-return]
+
+
+def depth_transfer(params: RobustParams, dt: float, z: ArrayLike, bandwidth: float) -> np.ndarray:
+    """The sampled depth loop at z, with the depth sensitivity ∂e/∂l known: integrator
+    ω_l dt / (z - 1), the filter H_f, the notches of the plane with the slowest dither (rows
+    dx and theta_y: the lowest notch frequency, the most phase below it), one period and
+    ``loop_delay`` more. ``bandwidth`` is ω_l."""
+    z = np.asarray(z, dtype=complex)
+    notch = np.ones_like(z)
+    for fraction in (DITHER_FRACTIONS[0], DITHER_FRACTIONS[3]):
+        b0, b1, a2 = notch_coefficients(2 * math.pi * fraction / dt, NOTCH_QUALITY, dt)
+        notch = notch * (b0 * z * z + b1 * z + b0) / (z * z + b1 * z + a2)
+    periods = 1 + round(params.loop_delay / dt)
+    return (bandwidth * dt / (z - 1) * _filter_transfer(params, dt, z)  # type: ignore[no-any-return]
+            * notch / z**periods)  # fmt: skip
+
+
+def depth_phase_margin(params: RobustParams, dt: float, bandwidth: float) -> float:
+    """Phase margin [rad] of :func:`depth_transfer`, at its crossover."""
+    omegas = np.geomspace(1e-2, math.pi / dt, 4000)
+    l_values = depth_transfer(params, dt, np.exp(1j * omegas * dt), bandwidth)
+    i_c = int(np.argmax(np.abs(l_values) < 1.0))
+    return float(math.pi + np.unwrap(np.angle(l_values))[i_c])
+
+
+def _largest(margin: Callable[[float], float], high: float, want: float) -> float:
+    """The largest bandwidth up to ``high`` whose ``margin`` is at least ``want`` (bisection;
+    the margin falls with the bandwidth)."""
+    if margin(high) >= want:
+        return high
+    low = 0.0
+    for _ in range(40):
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if margin(mid) >= want else (low, mid)
+    return low
 
 
 def loop_margins(
@@ -92,21 +135,10 @@ class Design:
 
 def design(params: RobustParams, dt: float) -> Design:
     """The largest lateral crossover up to ``bandwidth`` whose sampled loop, delayed by
-    ``loop_delay``, keeps ``phase_margin`` (bisection on :func:`loop_margins`), and the depth
-    loop's: an integrator behind the same delay has the phase margin
-    ``π/2 - ω_l (loop_delay + dt)``, so ``ω_l <= (π/2 - margin) / (loop_delay + dt)``."""
+    ``loop_delay``, keeps ``phase_margin`` (:func:`loop_margins`), and the largest depth
+    bandwidth up to ``depth_bandwidth`` that keeps it too (:func:`depth_phase_margin`)."""
     delay, want = params.loop_delay, params.phase_margin
-
-    def margin(w: float) -> float:
-        return loop_margins(params, dt, 0.0, delay=delay, bandwidth=w).phase_margin
-
-    low, high = 0.0, params.bandwidth
-    if margin(high) < want:
-        for _ in range(40):
-            mid = 0.5 * (low + high)
-            low, high = (mid, high) if margin(mid) >= want else (low, mid)
-        w_c = low
-    else:
-        w_c = high
-    w_l = min(params.depth_bandwidth, (math.pi / 2 - want) / (delay + dt))
+    w_c = _largest(lambda w: loop_margins(params, dt, 0.0, delay=delay, bandwidth=w)
+                   .phase_margin, params.bandwidth, want)  # fmt: skip
+    w_l = _largest(lambda w: depth_phase_margin(params, dt, w), params.depth_bandwidth, want)
     return Design(w_c, w_l, loop_margins(params, dt, 0.0, delay=delay, bandwidth=w_c))

@@ -44,10 +44,22 @@ under Depth): a tilt step then moves the offset row's effort ``u_d / U_d`` no fa
 identification excited; it is on only in contact and while inserting. Its amplitude follows that
 on/off target through a first-order lag of one period of the slowest dither, so switching it
 never steps the command: cut at an arbitrary phase, a tilt dither of ``dither_max_tilt`` (1 µm
-at the rim) pushes a tight stiff fit into hundreds of newtons. Once the depth is reached the
-peg is left still and the estimate is no longer released (the fit may still raise it): with
-nothing exciting the fit its slopes drift with the noise, and a released estimate is a raised
-gain, which rang stiff parts' lateral loops into 100-N oscillations at the depth.
+at the rim) pushes a tight stiff fit into hundreds of newtons. Its response is the law's own
+excitation, not a load: each filtered row passes notches at its plane's two dither frequencies
+(a tilt dither moves the plane's offset row too; ``NOTCH_QUALITY``) before the guard and the
+depth loop see it. Without it, a row whose
+stiffness the fit underestimates by ρ answers the dither with ρ times its designed size (2/3 of
+``tilt_effort`` for the tilts): at ρ ≈ 2 the tilt dither alone read as an effort of 3 and backed
+a 20 GPa part off from 9.9 mm, and it reads as a sustained oscillation to the guard.
+
+**At the depth.** Once the depth is reached the peg is left still: the dither fades out, the
+estimate is no longer released (the fit may still raise it: with nothing exciting the fit its
+slopes drift with the noise, and a released estimate is a raised gain, which rang stiff parts'
+lateral loops into 100-N oscillations there), and a row moves the peg only beyond
+``settle_force``, the residual lateral force the law accepts. Integrating noise-level rows at
+the floor's gain drifts the peg by up to the resolutions, more than a sub-µm clearance: a
+46 GPa part with 0.14 µm of clearance was tilted into its hole's wall at 200 N, 1 s after it
+had arrived.
 
 **Depth.** The insertion advances at ``insertion.speed`` while the lateral loops are settled and
 slows, holds or backs off while they are not: with the lateral effort
@@ -58,9 +70,12 @@ and its identified depth sensitivity ``∂e/∂l`` (the RLS's ``b_j``), the dept
     \\dot l_c = \\mathrm{clip}\\left(\\omega_l \\frac{1 - e}{\\partial e / \\partial l},
     -v, v\\right)\\ \\text{in contact},\\qquad \\dot l_c = v\\ \\text{otherwise},
 
-a depth loop that holds ``e`` at 1 with the bandwidth ``depth_bandwidth``, whatever the
-stiffness; the command never leads the measured depth by more than ``v * depth_lead``, so a hold
-takes effect within a sample. An axial force above ``fz_back_off`` backs off.
+a depth loop that holds ``e`` (the rows past their notches) at 1 with the bandwidth
+``depth_bandwidth``, whatever the stiffness, or less: H_f, the notch and ``loop_delay`` are in
+that loop, and :func:`~fbcc_ros.core.loop_design.design` keeps its phase margin too (30.6 rad/s
+at the defaults, not 50). The command never leads the measured depth by more than
+``v * depth_lead``, so a hold takes effect within a sample. An axial force above
+``fz_back_off`` backs off.
 
 State per trial lives in one float array (columns below), stepped by one compiled kernel for the
 simulator's batch and the controller's single row alike.
@@ -80,14 +95,13 @@ from fbcc_ros.core import identification as ident
 from fbcc_ros.core.axis_insertion import AxisInsertion
 from fbcc_ros.core.contact import FloatArray, PegHole, as_rows
 from fbcc_ros.core.errors import InputError
-from fbcc_ros.core.filters import second_order_row
+from fbcc_ros.core.filters import notch_coefficients, notch_step, second_order_row
 from fbcc_ros.core.loop_design import design
-from fbcc_ros.core.robust_params import RobustParams
+from fbcc_ros.core.robust_params import DITHER_FRACTIONS, NOTCH_QUALITY, RobustParams
 from fbcc_ros.core.segmentation import direct_row
 
-#: Dither frequencies of the rows dx, dy, theta_x, theta_y as fractions of the control rate
-#: (61, 53, 47 and 41 Hz at 1 kHz): distinct, not harmonics of each other, >= 16 samples a period.
-DITHER_FRACTIONS = (0.061, 0.053, 0.047, 0.041)
+#: Per row j (dx, dy, theta_x, theta_y): the other row of its plane (identification.PLANES).
+_PARTNER = (3, 2, 1, 0)
 
 # Columns of the per-trial state of the robust kernel (besides the identifier's and guard's).
 _C_X = 0  # filtered rows ū (5, depth unused)
@@ -108,7 +122,8 @@ _C_STOPPED = 41  # 1 once the force limit stopped the insertion
 _C_ELAPSED = 42  # insertion time while not stopped
 _C_DITHER = 43  # dither amplitudes of the 4 rows, as faded in and out
 _C_REACHED = 47  # 1 once the depth command has reached the depth
-_N_MAIN = 48
+_C_NOTCH = 48  # states of each row's 2 notches at its plane's dither frequencies (2 each)
+_N_MAIN = 64
 
 # Indices into the parameter vector of the kernel.
 (_P_WC, _P_DB_X, _P_DB_Y, _P_DB_TX, _P_DB_TY, _P_FORGET, _P_KMIN, _P_RELEASE, _P_DITH_F,
@@ -117,8 +132,10 @@ _N_MAIN = 48
  _P_NOISE_FZ, _P_BASE, _P_PER_DEPTH, _P_HOLE_DEPTH, _P_HOLE_RADIUS, _P_DT, _P_F0, _P_F1, _P_F2,
  _P_F3, _P_SU_X, _P_SU_Y, _P_SU_TX, _P_SU_TY, _P_MU0, _P_COUPLING, _P_GATE, _P_NFLOOR_X,
  _P_NFLOOR_Y, _P_NFLOOR_TX, _P_NFLOOR_TY, _P_G_MIN_X, _P_G_MIN_Y, _P_G_MIN_TX,
- _P_G_MIN_TY, _P_LEAD_X, _P_LEAD_T, _P_TILT_DEPTH, _P_DITH_FADE) = range(54)  # fmt: skip
-_N_PARAMS = 54
+ _P_G_MIN_TY, _P_LEAD_X, _P_LEAD_T, _P_TILT_DEPTH, _P_DITH_FADE, _P_NOTCH) = range(55)  # fmt: skip
+_P_NOTCH_END = _P_NOTCH + 24  # (b0, b1, a2) of each row's 2 notches
+_P_SETTLE = _P_NOTCH_END  # the band of every row once the depth is reached
+_N_PARAMS = _P_NOTCH_END + 1
 
 
 class RobustFbcc:
@@ -273,8 +290,24 @@ class RobustFbcc:
         prm[_P_TILT_DEPTH] = p.tilt_depth
         # fade of the dither: a first-order lag of one period of the slowest dither
         prm[_P_DITH_FADE] = 1.0 - math.exp(-min(DITHER_FRACTIONS))
+        for j in range(4):  # each row: its own dither's frequency, then its plane partner's
+            for n, row in enumerate((j, _PARTNER[j])):
+                prm[_P_NOTCH + 6 * j + 3 * n : _P_NOTCH + 6 * j + 3 * n + 3] = (
+                    notch_coefficients(prm[_P_F0 + row], NOTCH_QUALITY, dt))
+        prm[_P_SETTLE] = p.settle_force
         self._prm[dt] = prm
         return prm
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def _without_dither(prm: FloatArray, m: FloatArray, j: int, value: float) -> float:
+    """Row j's filtered value past the notches at its plane's two dither frequencies (module
+    doc, excitation); advances their state in the trial's state row ``m``."""
+    for n in range(2):
+        value = notch_step(prm[_P_NOTCH + 6 * j + 3 * n : _P_NOTCH + 6 * j + 3 * n + 3],
+                           m[_C_NOTCH + 4 * j + 2 * n : _C_NOTCH + 4 * j + 2 * n + 2],
+                           value)  # fmt: skip
+    return value  # type: ignore[no-any-return]
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
@@ -344,14 +377,15 @@ def _robust_rows(
         for j in range(4):
             f = ident.ROWS[j]
             scale = prm[_P_U_X] if j < 2 else prm[_P_U_T]
-            if guard_mod.guard_step(grd[i, j], xf[f], prm[_P_G_GROWTH], int(prm[_P_G_CYCLES]),
+            quiet = _without_dither(prm, m, j, xf[f])  # what the guard and depth loop see
+            if guard_mod.guard_step(grd[i, j], quiet, prm[_P_G_GROWTH], int(prm[_P_G_CYCLES]),
                                     prm[_P_G_MIN_X + j]):  # fmt: skip
                 m[_C_BACKOFF + j] *= prm[_P_G_BACKOFF]
                 ident.back_off(idn[i], j, prm[_P_G_BACKOFF])
                 m[_C_TRIPS] += 1.0
                 m[_C_HOLD] = m[_C_T] + prm[_P_G_HOLD]
-            if abs(xf[f]) / scale > effort:
-                effort, j_max = abs(xf[f]) / scale, j
+            if abs(quiet) / scale > effort:
+                effort, j_max = abs(quiet) / scale, j
         running = m[_C_STOPPED] == 0.0
         m[_C_T] += dt
         if running:
@@ -361,7 +395,10 @@ def _robust_rows(
         # scheduled integrators, per plane: x_c = x_rfr - ∫ ω_c Ĵ⁻¹ dz(ū) dt
         for j in range(4):
             f = ident.ROWS[j]
-            excess[j] = max(abs(xf[f]) - prm[_P_DB_X + j], 0.0)
+            band = prm[_P_DB_X + j]
+            if m[_C_REACHED] > 0.0:  # at the depth only a settle_force moves the peg
+                band = max(band, prm[_P_SETTLE])
+            excess[j] = max(abs(xf[f]) - band, 0.0)
             if xf[f] < 0.0:
                 excess[j] = -excess[j]
         for plane in range(2):

@@ -12,12 +12,13 @@ import numpy as np
 import pytest
 
 from fbcc_ros.core import identification as ident
+from fbcc_ros.core import robust as robust_mod
 from fbcc_ros.core.contact import PegHole
 from fbcc_ros.core.control import ComplianceParams, make_law, params_from_mapping
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.features import true_features
 from fbcc_ros.core.guard import GuardParams, OscillationGuard
-from fbcc_ros.core.loop_design import design, loop_margins, loop_transfer
+from fbcc_ros.core.loop_design import depth_phase_margin, design, loop_margins, loop_transfer
 from fbcc_ros.core.robust import RobustFbcc
 from fbcc_ros.core.robust_params import RobustParams
 from fbcc_ros.core.scenario import validate
@@ -227,8 +228,13 @@ def test_the_design_keeps_the_stated_margin_with_the_stated_delay() -> None:
         d = design(p, DT)
         assert d.bandwidth <= p.bandwidth and d.depth_bandwidth <= p.depth_bandwidth
         assert d.margins.phase_margin >= p.phase_margin - 1e-3
-        # the depth loop: an integrator behind the delay
-        assert math.pi / 2 - d.depth_bandwidth * (delay + DT) >= p.phase_margin - 1e-9
+        # the depth loop: an integrator behind H_f, the dither notch and the delay
+        assert depth_phase_margin(p, DT, d.depth_bandwidth) >= p.phase_margin - 1e-3
+    # the filter and the notch are in the depth loop: at the undelayed integrator's bandwidth
+    # (pi/2 - margin) / (delay + dt) the loop keeps far less than the stated margin
+    p = RobustParams()
+    naive = (math.pi / 2 - p.phase_margin) / (p.loop_delay + DT)
+    assert depth_phase_margin(p, DT, naive) < p.phase_margin - math.radians(15)
     fast = loop_margins(RobustParams(), DT, 0.0, delay=0.05, bandwidth=RobustParams().bandwidth)
     assert fast.phase_margin < math.radians(20)
 
@@ -299,6 +305,7 @@ def test_an_unstated_delay_slows_the_depth_and_does_not_shake_it(fit: str, k: fl
     backwards = -np.diff(commands[:, 2]).clip(max=0.0).sum()
     assert backwards < 2e-4, backwards
 
+
 def test_a_stiff_part_behind_a_slow_loop_is_not_pushed_blind() -> None:
     """10 GPa behind 50 ms of command delay: until the motion into the contact is seen, the
     identification has nothing to say and the stiffness floor is soft, so an unbounded
@@ -321,7 +328,7 @@ _CHANGED: dict[str, tuple[object, dict[str, object]]] = {
     "guard_cycles": (2, {}),  # the default's 8 half-waves do not trip on this run
     "guard_amplitude": (4000.0, {"guard_cycles": 2}),  # above the trips' amplitude
     "guard_backoff": (2.0, {"guard_cycles": 2}),
-    "guard_hold": (0.05, {"guard_cycles": 2}),
+    "guard_hold": (0.2, {"guard_cycles": 2}),
     "fz_back_off": (5.0, {}),  # below the run's peak Fz (9.3 N)
     "F_ext_limit": (15.0, {"fz_back_off": 10.0}),
     "coupling_limit": (0.5, {}),
@@ -330,13 +337,15 @@ _CHANGED: dict[str, tuple[object, dict[str, object]]] = {
 }
 #: Parameters that act only when the commands take effect late (the delayed plant).
 _DELAYED = {"depth_lead": 1e-4, "lateral_lead": 1.0, "tilt_lead": 1e-4}
+#: Parameters that act only once the depth is reached (a longer run).
+_AT_DEPTH = {"settle_force": 0.0}
 
 
-def _commands(params: RobustParams) -> np.ndarray:
+def _commands(params: RobustParams, duration: float = 1.5) -> np.ndarray:
     data = {"geometry": {"hole_radius": 5.05e-3, "peg_radius": 5.04e-3, "hole_depth": 0.01,
                          "base_thickness": 0.005, "friction": 0.3, "stiffness": 3e10},
             "initial": {"dx": 6e-5, "dy": -4e-5, "theta_x": 0.02, "theta_y": -0.03},
-            "duration": 1.5}  # fmt: skip
+            "duration": duration}  # fmt: skip
     sc = dataclasses.replace(validate(data), params=params)
     _, trajectory = simulate(sc, "fbcc")
     assert trajectory is not None
@@ -355,6 +364,10 @@ def test_every_robust_parameter_changes_the_commands(name: str) -> None:
         runs = [_behind_a_delay(ph, dev, p, 50, keep=True) for p in (base, changed)]
         assert not np.array_equal(runs[0][4], runs[1][4]), name
         return
+    if name in _AT_DEPTH:
+        changed = dataclasses.replace(RobustParams(), **{name: _AT_DEPTH[name]})
+        assert not np.array_equal(_commands(RobustParams(), 4.0), _commands(changed, 4.0)), name
+        return
     value, needs = _CHANGED[name] if name in _CHANGED else (0.5 * default, {})
     base = RobustParams(**needs)  # type: ignore[arg-type]
     changed = dataclasses.replace(base, **{name: value})
@@ -364,9 +377,10 @@ def test_every_robust_parameter_changes_the_commands(name: str) -> None:
 def test_the_tilt_rows_wait_until_the_peg_is_in() -> None:
     """A stiff part (60 GPa, μ 0.47; the controller knows only the nominal pair) in a hole
     tilted by 1.3°/0.5° and displaced ~0.1 mm: at the entry the rim contact on the tilted top
-    face reads as a tilt the wrong way. Integrated from the first touch, the tilt rows turned
-    the peg 0.16° further into its initial tilt (with the tilt rows at the noise floor's gain,
-    0.8°, until it jammed at the force limit); held until the peg is tilt_depth in, 0.015°."""
+    face reads as a tilt the wrong way. Integrated from the first touch, the tilt rows turn the
+    peg 0.08° further into its initial tilt; held until the peg is tilt_depth in, 0.02°, within
+    the tilt's noise (with the tilt rows at the noise floor's gain, integrating at once turned
+    it 0.8° and it jammed at the force limit)."""
     sc = validate({"geometry": {"hole_radius": 5.05e-3, "peg_radius": 5.04e-3,
                                 "hole_depth": 0.01, "base_thickness": 0.005, "friction": 0.3,
                                 "stiffness": 1.84e8},
@@ -381,8 +395,8 @@ def test_the_tilt_rows_wait_until_the_peg_is_in() -> None:
         outcomes[depth] = outcome.summary(0)
     held, at_once = outcomes[RobustParams().tilt_depth], outcomes[0.0]
     assert held["success"] and not held["force_limited"], held
-    assert held["tilt_misadjustment"] < 0.2 * at_once["tilt_misadjustment"], (held, at_once)
-
+    assert held["tilt_misadjustment"] < math.radians(0.03), held
+    assert at_once["tilt_misadjustment"] > 3.0 * held["tilt_misadjustment"], (held, at_once)
 
 
 def test_tight_stiff_pairs_are_not_wedged_by_the_tilt_rows() -> None:
@@ -407,6 +421,7 @@ def test_tight_stiff_pairs_are_not_wedged_by_the_tilt_rows() -> None:
     outcome, _ = simulate(sc, "fbcc", initial=initial, geometries=parts, record=False)
     assert not outcome.force_limited.any(), np.flatnonzero(outcome.force_limited)
     assert outcome.success.all(), np.flatnonzero(~outcome.success)
+
 
 def test_the_dither_fades_out_when_the_depth_is_reached() -> None:
     """A law pressed on a contact (Fz 5 N, no lateral force) and followed by an ideal robot: at
@@ -491,3 +506,45 @@ def test_the_loop_gain_on_a_study_interference_part_stays_inside_the_gain_margin
             ratios.append(_slope(ph, x, 0, 0, 1e-9) / law.estimate().stiffness[0])
     margin = loop_margins(params, DT, 0.005, bandwidth=design(params, DT).bandwidth).gain_margin
     assert 0.5 < min(ratios) and max(ratios) < margin, (np.round(ratios, 2), margin)
+
+
+def test_the_guard_and_the_depth_loop_see_the_rows_without_the_laws_own_dither() -> None:
+    """Each row passes notches at its plane's two dither frequencies (a tilt dither moves the
+    plane's offset row too) before the guard and the depth loop see it: the response to the
+    law's own excitation, which a fit that errs soft by ρ makes ρ times its designed size, is
+    neither an effort nor an oscillation (below 5 %). A lateral load at 8 Hz passes (within
+    10 %)."""
+    law = RobustFbcc(_pair("clearance", 1e9), RobustParams())
+    prm = law._parameters(DT)
+    fractions = robust_mod.DITHER_FRACTIONS
+    t = np.arange(3000) * DT
+    for j, partner in enumerate((3, 2, 1, 0)):
+        for hz, passes in ((fractions[j] / DT, False), (fractions[partner] / DT, False),
+                           (8.0, True)):  # fmt: skip
+            m = np.zeros(robust_mod._N_MAIN)
+            signal = np.sin(2 * math.pi * hz * t)
+            out = np.array([robust_mod._without_dither(prm, m, j, v) for v in signal])
+            settled = np.abs(out[2000:]).max()
+            assert (0.9 < settled < 1.1) if passes else (settled < 0.05), (j, hz, settled)
+
+
+def test_at_the_depth_only_a_settle_force_moves_the_peg() -> None:
+    """Once the depth is reached a row inside settle_force leaves the peg still (a still peg
+    cannot wedge itself in a sub-µm clearance; one that integrates noise-level rows drifts by
+    up to the resolutions); a row beyond it is still corrected."""
+    for fx, moves in ((0.6 * RobustParams().settle_force, False),
+                      (2.0 * RobustParams().settle_force, True)):  # fmt: skip
+        law = RobustFbcc(_pair("clearance", 1e9), RobustParams(tilt_depth=0.0))
+        x = np.zeros(5)
+        x[2] = 0.0099
+        law.reset(x)
+        commands = []
+        for _ in range(1500):
+            x = law.step(np.array([0.0, 0.0, 5.0, 0.0, 0.0]) if x[2] < 0.01
+                         else np.array([fx, 0.0, 5.0, 0.0, 0.0]), x, DT)  # fmt: skip
+            commands.append(x.copy())
+        c = np.array(commands)
+        at_depth = int(np.argmax(c[:, 2] >= 0.01))
+        assert 0 < at_depth < 500
+        settled = c[at_depth + 500 :, 0]  # after the dither's fade
+        assert (np.ptp(settled) > 1e-9) == moves, (fx, np.ptp(settled))
