@@ -1,0 +1,212 @@
+"""The compiled damped Newton iteration of :class:`fbcc_ros.core.holder_solver.HolderSolver`,
+one row at a time (the solver's module doc describes the steps; ``HolderSolver._batched`` runs
+the same steps in numpy for any response callable): numpy's per-call overhead over 4x4 blocks
+of a 128-row batch would cost several times the contact kernel itself. Residuals are scaled by
+the tolerances, so "converged" means ``|residual| <= 1`` in every coordinate."""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from fbcc_ros.core import contact as contact_mod
+from fbcc_ros.core.contact import FloatArray
+from fbcc_ros.core.holder import BoolArray
+
+#: Forward-difference steps of the Jacobian: u_x, u_y [m], phi_x, phi_y [rad]. Small against the
+#: microns the peg moves, large against rounding (3e9 N/m × 1e-9 m = 3 N vs ~1e-8 N noise).
+FD_STEP = np.array([1e-9, 1e-9, 1e-7, 1e-7])
+#: Sufficient decrease of the squared scaled residual for a step to be accepted (Armijo).
+ARMIJO = 1e-4
+#: A step that leaves more than this fraction of the squared residual asks for a fresh Jacobian.
+SLOW = 0.25
+#: Smallest step fraction of the line search: below it a row gives up for this call.
+T_MIN = 1e-10
+
+
+@numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
+def _row_residual(
+    xr: FloatArray, h: float, q: FloatArray, tab: FloatArray, peg_top: bool,
+    ca: FloatArray, sa: FloatArray, gl_x: FloatArray, gl_w: FloatArray,
+    k: FloatArray, tol: FloatArray, fbuf: FloatArray, wbuf: FloatArray, r: FloatArray,
+) -> float:  # fmt: skip
+    """Features of deflection q into fbuf[0], wrench into wbuf[0], scaled residual into r;
+    returns the squared residual."""
+    fbuf[0, 0] = xr[0] + q[0] - h * q[3]
+    fbuf[0, 1] = xr[1] + q[1] + h * q[2]
+    fbuf[0, 2] = xr[2]
+    fbuf[0, 3] = xr[3] + q[2]
+    fbuf[0, 4] = xr[4] + q[3]
+    contact_mod._response_kernel(fbuf, tab, peg_top, ca, sa, gl_x, gl_w, wbuf)
+    fx, fy, fz, mx, my = wbuf[0, 0], wbuf[0, 1], wbuf[0, 2], wbuf[0, 3], wbuf[0, 4]
+    if not peg_top:  # moments from (0, 0, -(L + H)) to the grip point (module doc)
+        pl, rad, depth = tab[6, 0], tab[1, 0], tab[4, 0] + tab[5, 0]
+        tx, ty = math.tan(fbuf[0, 4]), -math.tan(fbuf[0, 3])
+        tan2 = tx * tx + ty * ty
+        cos_t = 1.0 / math.sqrt(1.0 + tan2)
+        sin_t = math.sqrt(tan2) * cos_t
+        along = (pl - 0.5 * xr[2]) * cos_t
+        x_g, y_g = fbuf[0, 0] + along * tx, fbuf[0, 1] + along * ty
+        hz = (rad * sin_t + pl - xr[2]) * cos_t + depth
+        mx, my = mx + y_g * fz + hz * fy, my - hz * fx - x_g * fz
+    r[0] = (k[0] * q[0] + fx) / tol[0]
+    r[1] = (k[1] * q[1] + fy) / tol[1]
+    r[2] = (k[2] * q[2] + mx) / tol[2]
+    r[3] = (k[3] * q[3] + my) / tol[3]
+    return float(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3])
+
+
+@numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
+def _touches_nothing(wbuf: FloatArray) -> bool:
+    """Whether the wrench in wbuf[0] is exactly zero (the kernel's "no contact")."""
+    for m in range(5):
+        if wbuf[0, m] != 0.0:
+            return False
+    return True
+
+
+@numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
+def _is_off_wall(q: FloatArray, wbuf: FloatArray) -> bool:
+    """Whether deflection q touches nothing with the holder deflected (one row; the wrench in
+    wbuf[0]): no equilibrium, see :mod:`fbcc_ros.core.holder_solver`."""
+    if not _touches_nothing(wbuf):
+        return False
+    return bool(q[0] != 0.0 or q[1] != 0.0 or q[2] != 0.0 or q[3] != 0.0)
+
+
+@numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
+def _solve4(a_in: FloatArray, b: FloatArray, a: FloatArray, out: FloatArray) -> None:
+    """out = a_in^-1 b by Gaussian elimination with partial pivoting (a: 4x4 scratch); a
+    singular or non-finite system gives out = b."""
+    for i in range(4):
+        out[i] = b[i]
+        for j in range(4):
+            a[i, j] = a_in[i, j]
+    for c in range(4):
+        p = c
+        for i in range(c + 1, 4):
+            if abs(a[i, c]) > abs(a[p, c]):
+                p = i
+        piv = a[p, c]
+        if not (abs(piv) > 1e-300 and math.isfinite(piv)):
+            for i in range(4):
+                out[i] = b[i]
+            return
+        if p != c:
+            for j in range(4):
+                a[c, j], a[p, j] = a[p, j], a[c, j]
+            out[c], out[p] = out[p], out[c]
+        for i in range(c + 1, 4):
+            f = a[i, c] / piv
+            for j in range(c, 4):
+                a[i, j] -= f * a[c, j]
+            out[i] -= f * out[c]
+    for c in range(3, -1, -1):
+        s = out[c]
+        for j in range(c + 1, 4):
+            s -= a[c, j] * out[j]
+        out[c] = s / a[c, c]
+    for i in range(4):
+        if not math.isfinite(out[i]):
+            for m in range(4):
+                out[m] = b[m]
+            return
+
+
+@numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
+def solve_rows(
+    xr: FloatArray, h: FloatArray, q: FloatArray, back: FloatArray, jac: FloatArray,
+    have: BoolArray, table: FloatArray, peg_top: bool, ca: FloatArray, sa: FloatArray,
+    gl_x: FloatArray, gl_w: FloatArray, k: FloatArray, tol: FloatArray, max_iter: int,
+    fd: FloatArray, x_out: FloatArray, w_out: FloatArray, conv: BoolArray,
+    evals: NDArray[np.int64], iters: NDArray[np.int64],
+) -> None:  # fmt: skip
+    n = xr.shape[0]
+    tab = np.empty((7, 1))
+    fbuf, wbuf = np.empty((1, 5)), np.empty((1, 5))
+    fbuf_t, wbuf_t = np.empty((1, 5)), np.empty((1, 5))
+    r, rt, qt, s, neg = np.empty(4), np.empty(4), np.empty(4), np.empty(4), np.empty(4)
+    dz, dr, jdz, scratch = np.empty(4), np.empty(4), np.empty(4), np.empty((4, 4))
+    for i in range(n):
+        c = i if table.shape[1] > 1 else 0
+        for m in range(7):
+            tab[m, 0] = table[m, c]
+        qi, ji = q[i], jac[i]
+        merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, gl_x, gl_w, k, tol,
+                              fbuf, wbuf, r)  # fmt: skip
+        n_eval = 1
+        for fallback in range(2):  # off the wall: start from the last solution, then from 0
+            if not _is_off_wall(qi, wbuf):
+                break
+            for m in range(4):
+                qi[m] = back[i, m] if fallback == 0 else 0.0
+            merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, gl_x, gl_w, k, tol,
+                                  fbuf, wbuf, r)  # fmt: skip
+            n_eval += 1
+        it, t, fresh = 0, 1.0, False
+        done = max(abs(r[0]), abs(r[1]), abs(r[2]), abs(r[3])) <= 1.0
+        while not done and it < max_iter:
+            it += 1
+            if not have[i]:  # forward differences in scaled units
+                for j in range(4):
+                    for m in range(4):
+                        qt[m] = qi[m]
+                    qt[j] += fd[j]
+                    _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, gl_x, gl_w, k, tol,
+                                  fbuf_t, wbuf_t, rt)  # fmt: skip
+                    for m in range(4):
+                        ji[m, j] = (rt[m] - r[m]) / (fd[j] * k[j] / tol[j])
+                n_eval += 4
+                have[i] = fresh = True
+            for m in range(4):
+                neg[m] = -r[m]
+            _solve4(ji, neg, scratch, s)
+            for m in range(4):
+                qt[m] = qi[m] + t * s[m] * tol[m] / k[m]
+            mt = _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, gl_x, gl_w, k, tol,
+                               fbuf_t, wbuf_t, rt)  # fmt: skip
+            n_eval += 1
+            if _is_off_wall(qt, wbuf_t):  # no equilibrium there: no deflection, or back
+                for m in range(4):
+                    qt[m] = 0.0
+                mt = _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, gl_x, gl_w, k, tol,
+                                   fbuf_t, wbuf_t, rt)  # fmt: skip
+                n_eval += 1
+                if not _touches_nothing(wbuf_t):
+                    mt = math.inf
+            if mt < (1.0 - ARMIJO * t) * merit:  # False for NaN
+                den = 0.0
+                for m in range(4):
+                    dz[m] = (qt[m] - qi[m]) * k[m] / tol[m]
+                    dr[m] = rt[m] - r[m]
+                    den += dz[m] * dz[m]
+                if den > 0.0:  # Broyden's rank-one update
+                    for m in range(4):
+                        jdz[m] = 0.0
+                        for j in range(4):
+                            jdz[m] += ji[m, j] * dz[j]
+                    for m in range(4):
+                        for j in range(4):
+                            v = ji[m, j] + (dr[m] - jdz[m]) * dz[j] / den
+                            if math.isfinite(v):
+                                ji[m, j] = v
+                if mt > SLOW * merit:
+                    have[i] = False
+                for m in range(4):
+                    qi[m], r[m] = qt[m], rt[m]
+                for m in range(5):
+                    fbuf[0, m], wbuf[0, m] = fbuf_t[0, m], wbuf_t[0, m]
+                merit, t, fresh = mt, 1.0, False
+            elif fresh:  # a fresh Jacobian's step failed: halve it
+                t *= 0.5
+                if t < T_MIN:
+                    break
+            else:  # a stale Jacobian's: refresh it
+                have[i] = False
+            done = max(abs(r[0]), abs(r[1]), abs(r[2]), abs(r[3])) <= 1.0
+        for m in range(5):
+            x_out[i, m], w_out[i, m] = fbuf[0, m], wbuf[0, m]
+        conv[i], evals[i], iters[i] = done, n_eval, it
