@@ -13,6 +13,7 @@ import math
 
 import numba
 import numpy as np
+import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from fbcc_ros.core.errors import ConfigError
@@ -95,3 +96,23 @@ def notch_step(b: FloatArray, s: FloatArray, x: float) -> float:
     s[0] = b[1] * x - b[1] * y + s[1]
     s[1] = b[0] * x - b[2] * y
     return y
+
+
+def second_order_coefficients(omega: float, damping: float, dt: float) -> FloatArray:
+    """The unit-gain second-order low-pass ``ω² / (s² + 2 ζ ω s + ω²)`` discretised exactly for
+    a zero-order hold at period dt: (Phi00, Phi01, Phi10, Phi11, Gamma0, Gamma1) of
+    ``[x, v](k+1) = Phi [x, v](k) + Gamma u(k)``."""
+    w, z = omega, damping
+    aug = np.array([[0.0, 1.0, 0.0], [-w * w, -2 * z * w, w * w], [0.0, 0.0, 0.0]])
+    e = scipy.linalg.expm(aug * dt)
+    return np.array([e[0, 0], e[0, 1], e[1, 0], e[1, 1], e[0, 2], e[1, 2]])
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def second_order_step(c: FloatArray, s: FloatArray, u: float) -> float:
+    """One sample of one channel of :func:`second_order_coefficients` ``c`` with state
+    ``s = (x, v)``, in place; returns the new x."""
+    x, v = s[0], s[1]
+    s[0] = c[0] * x + c[1] * v + c[4] * u
+    s[1] = c[2] * x + c[3] * v + c[5] * u
+    return s[0]  # type: ignore[no-any-return]

@@ -1,7 +1,7 @@
 """The robust law's gain design: the margins of its linearised lateral loop (integrator,
-filter H_f, robot lag, delays) and of its depth loop (integrator, H_f, the dither notch,
-delays), and the bandwidths that keep the stated phase margin with the stated ``loop_delay``
-(:mod:`fbcc_ros.core.robust`, module doc)."""
+filter H_f, robot lag, delays) and of its depth loop (integrator, its own low-pass, the dither
+notches, delays), and the bandwidths that keep the stated phase margin with the stated
+``loop_delay`` (:mod:`fbcc_ros.core.robust`, module doc)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from fbcc_ros.core.filters import notch_coefficients
+from fbcc_ros.core.filters import notch_coefficients, second_order_coefficients
 from fbcc_ros.core.robust_params import DITHER_FRACTIONS, NOTCH_QUALITY, RobustParams
 
 
@@ -45,7 +45,7 @@ def loop_transfer(
     constant ``lag`` (ZOH; 0: none), one period from the sample to the command, and ``delay``
     [s] more, in whole periods. ``bandwidth`` overrides ω_c."""
     z = np.asarray(z, dtype=complex)
-    h_f = _filter_transfer(params, dt, z)
+    h_f = _filter_transfer(params.filter_coefficients(dt)[:, 0], z)
     a = math.exp(-dt / lag) if lag > 0 else 0.0
     robot = (1 - a) / (z - a)
     w_c = params.bandwidth if bandwidth is None else bandwidth
@@ -53,27 +53,28 @@ def loop_transfer(
     return w_c * dt / (z - 1) * h_f * robot / z**periods  # type: ignore[no-any-return]
 
 
-def _filter_transfer(params: RobustParams, dt: float, z: np.ndarray) -> np.ndarray:
-    """H_f (ZOH) at z: the first component of (z I - Phi)^-1 Gamma, the 2x2 inverse written
-    out."""
-    c = params.filter_coefficients(dt)[:, 0]
+def _filter_transfer(c: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """A second-order low-pass (ZOH; ``c`` from :func:`~fbcc_ros.core.filters.
+    second_order_coefficients`) at z: the first component of (z I - Phi)^-1 Gamma, the 2x2
+    inverse written out."""
     det = (z - c[0]) * (z - c[3]) - c[1] * c[2]
     return ((z - c[3]) * c[4] + c[1] * c[5]) / det  # type: ignore[no-any-return]
 
 
 def depth_transfer(params: RobustParams, dt: float, z: ArrayLike, bandwidth: float) -> np.ndarray:
     """The sampled depth loop at z, with the depth sensitivity ∂e/∂l known: integrator
-    ω_l dt / (z - 1), the filter H_f, the notches of the plane with the slowest dither (rows
-    dx and theta_y: the lowest notch frequency, the most phase below it), one period and
-    ``loop_delay`` more. ``bandwidth`` is ω_l."""
+    ω_l dt / (z - 1), the depth loop's low-pass (``depth_filter_frequency``), the notches of
+    the plane with the slowest dither (rows dx and theta_y: the lowest notch frequency, the most
+    phase below it), one period and ``loop_delay`` more. ``bandwidth`` is ω_l."""
     z = np.asarray(z, dtype=complex)
     notch = np.ones_like(z)
     for fraction in (DITHER_FRACTIONS[0], DITHER_FRACTIONS[3]):
         b0, b1, a2 = notch_coefficients(2 * math.pi * fraction / dt, NOTCH_QUALITY, dt)
         notch = notch * (b0 * z * z + b1 * z + b0) / (z * z + b1 * z + a2)
     periods = 1 + round(params.loop_delay / dt)
-    return (bandwidth * dt / (z - 1) * _filter_transfer(params, dt, z)  # type: ignore[no-any-return]
-            * notch / z**periods)  # fmt: skip
+    low_pass = _filter_transfer(
+        second_order_coefficients(params.depth_filter_frequency, params.filter_damping, dt), z)
+    return bandwidth * dt / (z - 1) * low_pass * notch / z**periods  # type: ignore[no-any-return]
 
 
 def depth_phase_margin(params: RobustParams, dt: float, bandwidth: float) -> float:

@@ -95,7 +95,13 @@ from fbcc_ros.core import identification as ident
 from fbcc_ros.core.axis_insertion import AxisInsertion
 from fbcc_ros.core.contact import FloatArray, PegHole, as_rows
 from fbcc_ros.core.errors import InputError
-from fbcc_ros.core.filters import notch_coefficients, notch_step, second_order_row
+from fbcc_ros.core.filters import (
+    notch_coefficients,
+    notch_step,
+    second_order_coefficients,
+    second_order_row,
+    second_order_step,
+)
 from fbcc_ros.core.loop_design import design
 from fbcc_ros.core.robust_params import DITHER_FRACTIONS, NOTCH_QUALITY, RobustParams
 from fbcc_ros.core.segmentation import direct_row
@@ -122,8 +128,10 @@ _C_STOPPED = 41  # 1 once the force limit stopped the insertion
 _C_ELAPSED = 42  # insertion time while not stopped
 _C_DITHER = 43  # dither amplitudes of the 4 rows, as faded in and out
 _C_REACHED = 47  # 1 once the depth command has reached the depth
-_C_NOTCH = 48  # states of each row's 2 notches at its plane's dither frequencies (2 each)
-_N_MAIN = 64
+_C_NOTCH = 48  # the guard's notches: each row's 2 at its plane's dither frequencies (2 each)
+_C_DEPTH_F = 64  # the depth loop's low-pass of each row (x, v)
+_C_DNOTCH = 72  # the depth loop's notches, as _C_NOTCH
+_N_MAIN = 88
 
 # Indices into the parameter vector of the kernel.
 (_P_WC, _P_DB_X, _P_DB_Y, _P_DB_TX, _P_DB_TY, _P_FORGET, _P_KMIN, _P_RELEASE, _P_DITH_F,
@@ -135,7 +143,8 @@ _N_MAIN = 64
  _P_G_MIN_TY, _P_LEAD_X, _P_LEAD_T, _P_TILT_DEPTH, _P_DITH_FADE, _P_NOTCH) = range(55)  # fmt: skip
 _P_NOTCH_END = _P_NOTCH + 24  # (b0, b1, a2) of each row's 2 notches
 _P_SETTLE = _P_NOTCH_END  # the band of every row once the depth is reached
-_N_PARAMS = _P_NOTCH_END + 1
+_P_DEPTH_F = _P_NOTCH_END + 1  # the depth loop's low-pass (filters.second_order_coefficients)
+_N_PARAMS = _P_DEPTH_F + 6
 
 
 class RobustFbcc:
@@ -295,18 +304,19 @@ class RobustFbcc:
                 prm[_P_NOTCH + 6 * j + 3 * n : _P_NOTCH + 6 * j + 3 * n + 3] = (
                     notch_coefficients(prm[_P_F0 + row], NOTCH_QUALITY, dt))
         prm[_P_SETTLE] = p.settle_force
+        prm[_P_DEPTH_F : _P_DEPTH_F + 6] = second_order_coefficients(
+            p.depth_filter_frequency, p.filter_damping, dt)  # fmt: skip
         self._prm[dt] = prm
         return prm
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
-def _without_dither(prm: FloatArray, m: FloatArray, j: int, value: float) -> float:
-    """Row j's filtered value past the notches at its plane's two dither frequencies (module
-    doc, excitation); advances their state in the trial's state row ``m``."""
+def _without_dither(prm: FloatArray, bank: FloatArray, j: int, value: float) -> float:
+    """Row j's value past the notches at its plane's two dither frequencies (module doc,
+    excitation); advances their state in ``bank`` (16 columns: 4 per row)."""
     for n in range(2):
         value = notch_step(prm[_P_NOTCH + 6 * j + 3 * n : _P_NOTCH + 6 * j + 3 * n + 3],
-                           m[_C_NOTCH + 4 * j + 2 * n : _C_NOTCH + 4 * j + 2 * n + 2],
-                           value)  # fmt: skip
+                           bank[4 * j + 2 * n : 4 * j + 2 * n + 2], value)  # fmt: skip
     return value  # type: ignore[no-any-return]
 
 
@@ -377,15 +387,19 @@ def _robust_rows(
         for j in range(4):
             f = ident.ROWS[j]
             scale = prm[_P_U_X] if j < 2 else prm[_P_U_T]
-            quiet = _without_dither(prm, m, j, xf[f])  # what the guard and depth loop see
+            quiet = _without_dither(prm, m[_C_NOTCH : _C_NOTCH + 16], j, xf[f])
+            # what the depth loop sees: the row through its own, faster low-pass (module doc)
+            fast = second_order_step(prm[_P_DEPTH_F : _P_DEPTH_F + 6],
+                                     m[_C_DEPTH_F + 2 * j : _C_DEPTH_F + 2 * j + 2], u[f])
+            fast = _without_dither(prm, m[_C_DNOTCH : _C_DNOTCH + 16], j, fast)  # fmt: skip
             if guard_mod.guard_step(grd[i, j], quiet, prm[_P_G_GROWTH], int(prm[_P_G_CYCLES]),
                                     prm[_P_G_MIN_X + j]):  # fmt: skip
                 m[_C_BACKOFF + j] *= prm[_P_G_BACKOFF]
                 ident.back_off(idn[i], j, prm[_P_G_BACKOFF])
                 m[_C_TRIPS] += 1.0
                 m[_C_HOLD] = m[_C_T] + prm[_P_G_HOLD]
-            if abs(quiet) / scale > effort:
-                effort, j_max = abs(quiet) / scale, j
+            if abs(fast) / scale > effort:
+                effort, j_max = abs(fast) / scale, j
         running = m[_C_STOPPED] == 0.0
         m[_C_T] += dt
         if running:

@@ -10,11 +10,11 @@ from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
-import scipy.linalg
 
 from fbcc_ros.core import guard as guard_mod
 from fbcc_ros.core.contact import FloatArray
 from fbcc_ros.core.errors import ConfigError, InputError, require_number
+from fbcc_ros.core.filters import second_order_coefficients
 
 #: Default sensor noise the law assumes (standard deviations of Fx, Fy, Fz, Mx, My) [N, N·m].
 DEFAULT_SENSOR_NOISE = (0.05, 0.05, 0.05, 0.002, 0.002)
@@ -57,6 +57,12 @@ class RobustParams:
         tilt_effort: U of the tilt rows [N, units of A(l) F].
         depth_bandwidth: Largest ω_l of the depth loop [rad/s]
             (:func:`~fbcc_ros.core.loop_design.design`).
+        depth_filter_frequency: ω of the second-order low-pass (damping ``filter_damping``)
+            through which the depth loop sees the rows [rad/s]: faster than H_f, whose lag at
+            the depth loop's crossover (16° at 30 rad/s) would cut its bandwidth under the
+            stated margin, while the noise it passes (an effort of about 0.05 per deviation)
+            stays far below the effort of 1 the depth loop holds. Discretised exactly, it needs
+            no rate of its own; the depth loop's design accounts for it at the rate in use.
         depth_lead: Longest lead of the depth command over the measured depth, beyond
             ``loop_delay``, in seconds of insertion speed [s].
         fz_back_off: Axial force above which the insertion backs off [N]: above the largest
@@ -110,6 +116,7 @@ class RobustParams:
     offset_force: float = 40.0
     tilt_effort: float = 3.0
     depth_bandwidth: float = 50.0
+    depth_filter_frequency: float = 400.0
     depth_lead: float = 0.01
     fz_back_off: float = 250.0
     guard_growth: float = 0.9
@@ -130,8 +137,9 @@ class RobustParams:
     POSITIVE: ClassVar[tuple[str, ...]] = (
         "bandwidth", "filter_frequency", "filter_damping", "dead_band", "identification_window",
         "stiffness_min", "release", "dither_force", "dither_effort", "dither_max_offset",
-        "dither_max_tilt", "offset_force", "tilt_effort", "depth_bandwidth", "depth_lead",
-        "fz_back_off", "guard_amplitude", "guard_backoff", "guard_hold", "F_ext_limit",
+        "dither_max_tilt", "offset_force", "tilt_effort", "depth_bandwidth",
+        "depth_filter_frequency", "depth_lead", "fz_back_off", "guard_amplitude",
+        "guard_backoff", "guard_hold", "F_ext_limit",
         "offset_resolution", "tilt_resolution", "phase_margin", "lateral_lead", "tilt_lead",
     )  # fmt: skip
 
@@ -198,10 +206,7 @@ class RobustParams:
         """H_f discretised exactly for a zero-order hold at period dt: rows Phi00, Phi01,
         Phi10, Phi11, Gamma0, Gamma1 (the layout of ``filters.second_order_row``), all 5 columns
         alike."""
-        w, z = self.filter_frequency, self.filter_damping
-        aug = np.array([[0.0, 1.0, 0.0], [-w * w, -2 * z * w, w * w], [0.0, 0.0, 0.0]])
-        e = scipy.linalg.expm(aug * dt)
-        col = np.array([e[0, 0], e[0, 1], e[1, 0], e[1, 1], e[0, 2], e[1, 2]])
+        col = second_order_coefficients(self.filter_frequency, self.filter_damping, dt)
         return np.repeat(col[:, None], 5, axis=1)
 
     def check_rate(self, dt: float) -> None:

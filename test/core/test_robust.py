@@ -521,9 +521,9 @@ def test_the_guard_and_the_depth_loop_see_the_rows_without_the_laws_own_dither()
     for j, partner in enumerate((3, 2, 1, 0)):
         for hz, passes in ((fractions[j] / DT, False), (fractions[partner] / DT, False),
                            (8.0, True)):  # fmt: skip
-            m = np.zeros(robust_mod._N_MAIN)
+            bank = np.zeros(16)
             signal = np.sin(2 * math.pi * hz * t)
-            out = np.array([robust_mod._without_dither(prm, m, j, v) for v in signal])
+            out = np.array([robust_mod._without_dither(prm, bank, j, v) for v in signal])
             settled = np.abs(out[2000:]).max()
             assert (0.9 < settled < 1.1) if passes else (settled < 0.05), (j, hz, settled)
 
