@@ -23,7 +23,7 @@ sensor noise, which the paper's ``x_d_limit`` is for). With ``Ĵ = J`` each deco
 :func:`~fbcc_ros.core.loop_design.loop_margins` computes; an error ``k_j / k̂_j = ρ`` scales the
 loop gain by ρ, so the gain margin is the largest stiffness underestimate the loop survives. The
 identification is meant to err stiff (floor, slow release; on stiff interference contacts it
-errs soft instead, ρ up to ~5: ``docs/reproduction.md``) and the
+errs soft instead, ρ up to ~5.5: ``docs/reproduction.md``) and the
 oscillation guard (:mod:`fbcc_ros.core.guard`) backs a row's gain off by ``guard_backoff`` (the
 stiffness in use, at once, whatever the fit says) when its filtered response oscillates without
 decaying (a growing oscillation, or a limit cycle such as a delay the margins did not budget for
@@ -63,17 +63,19 @@ had arrived.
 
 **Depth.** The insertion advances at ``insertion.speed`` while the lateral loops are settled and
 slows, holds or backs off while they are not: with the lateral effort
-``e = max_j |ū_j| / U_j`` (``U`` = ``offset_force`` for dx, dy and ``tilt_effort`` for the tilts)
+``e = max_j |u'_j| / U_j`` (u' the rows as the depth loop sees them, below; ``U`` =
+``offset_force`` for dx, dy and ``tilt_effort`` for the tilts)
 and its identified depth sensitivity ``∂e/∂l`` (the RLS's ``b_j``), the depth rate is
 
 .. math::
     \\dot l_c = \\mathrm{clip}\\left(\\omega_l \\frac{1 - e}{\\partial e / \\partial l},
     -v, v\\right)\\ \\text{in contact},\\qquad \\dot l_c = v\\ \\text{otherwise},
 
-a depth loop that holds ``e`` (the rows past their notches) at 1 with the bandwidth
-``depth_bandwidth``, whatever the stiffness, or less: H_f, the notch and ``loop_delay`` are in
-that loop, and :func:`~fbcc_ros.core.loop_design.design` keeps its phase margin too (30.6 rad/s
-at the defaults, not 50). The command never leads the measured depth by more than
+a depth loop that holds ``e`` at 1 with the bandwidth ``depth_bandwidth``, whatever the
+stiffness, or less: :func:`~fbcc_ros.core.loop_design.design` keeps its phase margin too, with
+what is in it (39.5 rad/s at the defaults). The depth loop sees the rows through its own
+low-pass (``depth_filter_frequency``), not H_f, whose lag would hold it to 29.5 rad/s, and past
+the dither notches. The command never leads the measured depth by more than
 ``v * depth_lead``, so a hold takes effect within a sample. An axial force above
 ``fz_back_off`` backs off.
 

@@ -73,8 +73,8 @@ class RobustParams:
         guard_amplitude: See above (dimensionless).
         guard_backoff: Factor by which a tripped row's gain falls (> 1).
         guard_hold: How long the depth holds after a trip [s]. The back-off acts at once; on
-            the clearance studies of seeds 13 and 3 a hold of 0.2 s left 9 and 16 parts over
-            3 s, 0.05 s 5 and 13 (``docs/reproduction.md``).
+            the clearance studies of seeds 13 and 3 a hold of 0.2 s left 7 and 6 parts over
+            3 s, 0.05 s 3 and 2 (``docs/reproduction.md``).
         settle_force: Once the depth is reached, the band inside which a row does not move the
             peg [N, units of A(l) F], if wider than the dead band: the residual lateral force
             the law accepts. A still peg cannot wedge itself; one whose loops integrate noise
