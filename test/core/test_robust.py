@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from fbcc_ros.core import identification as ident
-from fbcc_ros.core import robust as robust_mod
+from fbcc_ros.core import robust_kernel
 from fbcc_ros.core.contact import PegHole
 from fbcc_ros.core.control import ComplianceParams, make_law, params_from_mapping
 from fbcc_ros.core.errors import ConfigError
@@ -516,14 +516,14 @@ def test_the_guard_and_the_depth_loop_see_the_rows_without_the_laws_own_dither()
     10 %)."""
     law = RobustFbcc(_pair("clearance", 1e9), RobustParams())
     prm = law._parameters(DT)
-    fractions = robust_mod.DITHER_FRACTIONS
+    fractions = robust_kernel.DITHER_FRACTIONS
     t = np.arange(3000) * DT
     for j, partner in enumerate((3, 2, 1, 0)):
         for hz, passes in ((fractions[j] / DT, False), (fractions[partner] / DT, False),
                            (8.0, True)):  # fmt: skip
             bank = np.zeros(16)
             signal = np.sin(2 * math.pi * hz * t)
-            out = np.array([robust_mod._without_dither(prm, bank, j, v) for v in signal])
+            out = np.array([robust_kernel.without_dither(prm, bank, j, v) for v in signal])
             settled = np.abs(out[2000:]).max()
             assert (0.9 < settled < 1.1) if passes else (settled < 0.05), (j, hz, settled)
 

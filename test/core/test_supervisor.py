@@ -132,10 +132,10 @@ def test_compiled_kernels_are_loaded_before_the_loop() -> None:
     so no other test has loaded them already."""
     code = """if True:
         from fbcc_ros.cli.common import paper_scenario
-        from fbcc_ros.core import scenario, contact, control, robust, kinematics as kin
+        from fbcc_ros.core import scenario, contact, control, robust_kernel, kinematics as kin
         from fbcc_ros.core.cell import MockCell
         sc = scenario.validate(paper_scenario("interference", "fbcc"))
-        kernels = (control._law_rows, robust._robust_rows, contact._response_kernel,
+        kernels = (control._law_rows, robust_kernel.robust_rows, contact._response_kernel,
                    kin._dls_update)
         assert not any(k.signatures for k in kernels)
         control.make_law("fbcc", sc.geometry, sc.params, sc.insertion)

@@ -1,0 +1,292 @@
+"""The compiled per-period step of the robust law (:mod:`fbcc_ros.core.robust` is the law
+and its doc): the layout of its per-trial state and of its parameter vector, the vector's
+values for a configuration, and the kernel that steps every trial (row) in place."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numba
+import numpy as np
+
+from fbcc_ros.core import guard as guard_mod
+from fbcc_ros.core import identification as ident
+from fbcc_ros.core.contact import FloatArray, PegHole
+from fbcc_ros.core.filters import (
+    notch_coefficients,
+    notch_step,
+    second_order_coefficients,
+    second_order_row,
+    second_order_step,
+)
+from fbcc_ros.core.loop_design import design
+from fbcc_ros.core.robust_params import DITHER_FRACTIONS, NOTCH_QUALITY, RobustParams
+from fbcc_ros.core.segmentation import direct_row
+
+#: Per row j (dx, dy, theta_x, theta_y): the other row of its plane (identification.PLANES).
+PARTNER = (3, 2, 1, 0)
+
+# Columns of the per-trial state of the robust kernel (besides the identifier's and guard's).
+C_X = 0  # filtered rows ū (5, depth unused)
+C_V = 5  # their rates
+C_INT = 10  # integrators ∫ x_d dt (5; depth unused)
+C_RFR = 15  # the reference x_rfr (the features at the start)
+C_PREV_X = 20  # measured features of the previous sample
+C_PREV_U = 25  # direction rows of the previous sample
+C_LCMD = 30  # depth command
+C_T = 31  # time since the start [s] (dither phase)
+C_HOLD = 32  # time until which the depth holds (guard) [s]
+C_MU = 33  # friction estimate
+C_CONTACT = 34  # 1 when the last sample was contact
+C_HAVE_PREV = 35  # 1 once a previous sample exists
+C_BACKOFF = 36  # gain back-off factors of the 4 rows (>= 1)
+C_TRIPS = 40  # guard trips so far
+C_STOPPED = 41  # 1 once the force limit stopped the insertion
+C_ELAPSED = 42  # insertion time while not stopped
+C_DITHER = 43  # dither amplitudes of the 4 rows, as faded in and out
+C_REACHED = 47  # 1 once the depth command has reached the depth
+C_NOTCH = 48  # the guard's notches: each row's 2 at its plane's dither frequencies (2 each)
+C_DEPTH_F = 64  # the depth loop's low-pass of each row (x, v)
+C_DNOTCH = 72  # the depth loop's notches, as C_NOTCH
+N_MAIN = 88
+
+# Indices into the parameter vector of the kernel.
+(P_WC, P_DB_X, P_DB_Y, P_DB_TX, P_DB_TY, P_FORGET, P_KMIN, P_RELEASE, P_DITH_F,
+ P_DITH_E, P_DITH_MAX_X, P_DITH_MAX_T, P_U_X, P_U_T, P_WL, P_LEAD, P_FZ_BACK,
+ P_G_GROWTH, P_G_CYCLES, P_G_AMP, P_G_BACKOFF, P_G_HOLD, P_FLIM2, P_SPEED, P_DEPTH,
+ P_NOISE_FZ, P_BASE, P_PER_DEPTH, P_HOLE_DEPTH, P_HOLE_RADIUS, P_DT, P_F0, P_F1, P_F2,
+ P_F3, P_SU_X, P_SU_Y, P_SU_TX, P_SU_TY, P_MU0, P_COUPLING, P_GATE, P_NFLOOR_X,
+ P_NFLOOR_Y, P_NFLOOR_TX, P_NFLOOR_TY, P_G_MIN_X, P_G_MIN_Y, P_G_MIN_TX,
+ P_G_MIN_TY, P_LEAD_X, P_LEAD_T, P_TILT_DEPTH, P_DITH_FADE, P_NOTCH) = range(55)  # fmt: skip
+P_NOTCH_END = P_NOTCH + 24  # (b0, b1, a2) of each row's 2 notches
+P_SETTLE = P_NOTCH_END  # the band of every row once the depth is reached
+P_DEPTH_F = P_NOTCH_END + 1  # the depth loop's low-pass (filters.second_order_coefficients)
+N_PARAMS = P_DEPTH_F + 6
+
+
+def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray:
+    """The kernel's parameter vector (layout above) for the law's parameters ``p``, its
+    insertion ``ins`` (depth, speed) and the nominal pair ``nom``, at period ``dt``."""
+    noise = np.asarray(p.sensor_noise, dtype=float)
+    # noise of the rows u = A F: offsets Fx, Fy; tilts dominated by M / R (eq. 28)
+    su = np.array([noise[0], noise[1], noise[3] / nom.hole_radius,
+                   noise[4] / nom.hole_radius])  # fmt: skip
+    # the filter passes about w_f dt / (4 zeta) of white noise's variance
+    filtered = su * math.sqrt(min(1.0, p.filter_frequency * dt / (4 * p.filter_damping)))
+    base, per_depth = nom.lever_terms()
+    prm = np.zeros(N_PARAMS)
+    chosen = design(p, dt)
+    prm[P_WC] = chosen.bandwidth
+    prm[P_DB_X : P_DB_TY + 1] = p.dead_band * filtered
+    prm[P_FORGET] = ident.forgetting(p.identification_window, dt)
+    prm[P_KMIN] = p.stiffness_min
+    prm[P_RELEASE] = math.exp(-dt / p.release)
+    prm[P_DITH_F], prm[P_DITH_E] = p.dither_force, p.dither_effort
+    prm[P_DITH_MAX_X], prm[P_DITH_MAX_T] = p.dither_max_offset, p.dither_max_tilt
+    prm[P_U_X], prm[P_U_T] = p.offset_force, p.tilt_effort
+    prm[P_WL], prm[P_FZ_BACK] = chosen.depth_bandwidth, p.fz_back_off
+    prm[P_LEAD] = p.depth_lead + p.loop_delay  # the measured depth lags by the delay
+    prm[P_G_GROWTH], prm[P_G_CYCLES] = p.guard_growth, p.guard_cycles
+    prm[P_G_AMP], prm[P_G_BACKOFF], prm[P_G_HOLD] = (
+        p.guard_amplitude, p.guard_backoff, p.guard_hold)  # fmt: skip
+    prm[P_FLIM2] = p.F_ext_limit**2
+    prm[P_SPEED], prm[P_DEPTH] = ins.speed, ins.depth
+    prm[P_NOISE_FZ] = noise[2]
+    prm[P_BASE], prm[P_PER_DEPTH] = base, per_depth
+    prm[P_HOLE_DEPTH], prm[P_HOLE_RADIUS] = nom.hole_depth, nom.hole_radius
+    prm[P_DT] = dt
+    prm[P_F0 : P_F3 + 1] = 2 * math.pi * np.array(DITHER_FRACTIONS) / dt  # [rad/s]
+    prm[P_SU_X : P_SU_TY + 1] = su
+    prm[P_MU0] = nom.friction
+    prm[P_COUPLING] = p.coupling_limit
+    prm[P_GATE] = 1.0 if p.plane_gate else 0.0
+    # noise floor of each row: the filtered noise over the resolution [N/m, N/rad]
+    resolution = np.array([p.offset_resolution] * 2 + [p.tilt_resolution] * 2)
+    prm[P_NFLOOR_X : P_NFLOOR_TY + 1] = filtered / resolution
+    prm[P_G_MIN_X : P_G_MIN_TY + 1] = p.guard_amplitude * filtered
+    prm[P_LEAD_X], prm[P_LEAD_T] = p.lateral_lead, p.tilt_lead
+    prm[P_TILT_DEPTH] = p.tilt_depth
+    # fade of the dither: a first-order lag of one period of the slowest dither
+    prm[P_DITH_FADE] = 1.0 - math.exp(-min(DITHER_FRACTIONS))
+    for j in range(4):  # each row: its own dither's frequency, then its plane partner's
+        for n, row in enumerate((j, PARTNER[j])):
+            prm[P_NOTCH + 6 * j + 3 * n : P_NOTCH + 6 * j + 3 * n + 3] = (
+                notch_coefficients(prm[P_F0 + row], NOTCH_QUALITY, dt))
+    prm[P_SETTLE] = p.settle_force
+    prm[P_DEPTH_F : P_DEPTH_F + 6] = second_order_coefficients(
+        p.depth_filter_frequency, p.filter_damping, dt)  # fmt: skip
+    return prm
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def without_dither(prm: FloatArray, bank: FloatArray, j: int, value: float) -> float:
+    """Row j's value past the notches at its plane's two dither frequencies (module doc,
+    excitation); advances their state in ``bank`` (16 columns: 4 per row)."""
+    for n in range(2):
+        value = notch_step(prm[P_NOTCH + 6 * j + 3 * n : P_NOTCH + 6 * j + 3 * n + 3],
+                           bank[4 * j + 2 * n : 4 * j + 2 * n + 2], value)  # fmt: skip
+    return value  # type: ignore[no-any-return]
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def robust_rows(
+    w: FloatArray,
+    x: FloatArray,
+    prm: FloatArray,
+    c: FloatArray,
+    main: FloatArray,
+    idn: FloatArray,
+    grd: FloatArray,
+    command: FloatArray,
+) -> None:
+    """One control period of every trial (row); state arrays advanced in place."""
+    dt = prm[P_DT]
+    u = np.zeros(5)
+    d_rows = np.zeros(4)
+    d_u = np.zeros(4)
+    floor = np.zeros(4)
+    backoff = np.ones(4)
+    excess = np.zeros(4)
+    jac = np.zeros(4)
+    k_row = np.zeros(4)
+    for i in range(w.shape[0]):
+        m = main[i]
+        # Algorithm 1 runs while |F_ext| <= F_ext_limit; past it the insertion stops for good.
+        if w[i, 0] * w[i, 0] + w[i, 1] * w[i, 1] + w[i, 2] * w[i, 2] > prm[P_FLIM2]:
+            m[C_STOPPED] = 1.0
+        depth = max(x[i, 2], 0.0)
+        direct_row(w[i], depth, prm[P_BASE], prm[P_PER_DEPTH], prm[P_HOLE_DEPTH],
+                   prm[P_HOLE_RADIUS], u)  # u = A(l) F, eq. (28)  # fmt: skip
+        u[2] = 0.0  # the depth is not filtered: it has its own loop
+        # contact: Fz or a row above its noise
+        contact = w[i, 2] > 3.0 * prm[P_NOISE_FZ]
+        for j in range(4):
+            contact = contact or abs(u[ident.ROWS[j]]) > 4.0 * prm[P_SU_X + j]
+        m[C_CONTACT] = 1.0 if contact else 0.0
+        # identification of each row's stiffness from the increments
+        for j in range(4):
+            f = ident.ROWS[j]
+            d_rows[j] = x[i, f] - m[C_PREV_X + f]
+            d_u[j] = u[f] - m[C_PREV_U + f]
+            backoff[j] = m[C_BACKOFF + j]
+        ident.floor_row(depth, prm[P_KMIN], floor)
+        for j in range(4):  # the noise floor: no gain that noise alone could drive further
+            floor[j] = max(floor[j], prm[P_NFLOOR_X + j])
+        if m[C_LCMD] >= prm[P_DEPTH]:
+            m[C_REACHED] = 1.0
+        # at the depth nothing excites the fit: it may raise the estimate, not release it
+        release = prm[P_RELEASE] if m[C_REACHED] == 0.0 else 1.0
+        identify = contact and m[C_HAVE_PREV] > 0.0
+        ident.identify_planes(idn[i], d_rows, x[i, 2] - m[C_PREV_X + 2], d_u, identify,
+                              prm[P_FORGET], floor, release, backoff)  # fmt: skip
+        for f in range(5):
+            m[C_PREV_X + f] = x[i, f]
+            m[C_PREV_U + f] = u[f]
+        m[C_HAVE_PREV] = 1.0
+        f_lat = math.sqrt(w[i, 0] * w[i, 0] + w[i, 1] * w[i, 1])
+        m[C_MU] = ident.friction_update(m[C_MU], w[i, 2], f_lat, 5.0 * prm[P_SU_X], dt)
+        # H_f: the filtered rows ū (eq. 27 with unit DC gain)
+        xf = m[C_X : C_X + 5]
+        vf = m[C_V : C_V + 5]
+        second_order_row(c, xf, vf, u)
+        # oscillation guard on each filtered row: a trip backs that row's gain off, holds depth
+        effort = 0.0
+        j_max = 0
+        for j in range(4):
+            f = ident.ROWS[j]
+            scale = prm[P_U_X] if j < 2 else prm[P_U_T]
+            quiet = without_dither(prm, m[C_NOTCH : C_NOTCH + 16], j, xf[f])
+            # what the depth loop sees: the row through its own, faster low-pass (module doc)
+            fast = second_order_step(prm[P_DEPTH_F : P_DEPTH_F + 6],
+                                     m[C_DEPTH_F + 2 * j : C_DEPTH_F + 2 * j + 2], u[f])
+            fast = without_dither(prm, m[C_DNOTCH : C_DNOTCH + 16], j, fast)  # fmt: skip
+            if guard_mod.guard_step(grd[i, j], quiet, prm[P_G_GROWTH], int(prm[P_G_CYCLES]),
+                                    prm[P_G_MIN_X + j]):  # fmt: skip
+                m[C_BACKOFF + j] *= prm[P_G_BACKOFF]
+                ident.back_off(idn[i], j, prm[P_G_BACKOFF])
+                m[C_TRIPS] += 1.0
+                m[C_HOLD] = m[C_T] + prm[P_G_HOLD]
+            if abs(fast) / scale > effort:
+                effort, j_max = abs(fast) / scale, j
+        running = m[C_STOPPED] == 0.0
+        m[C_T] += dt
+        if running:
+            m[C_ELAPSED] += dt
+        if not running:
+            continue  # the command is held
+        # scheduled integrators, per plane: x_c = x_rfr - ∫ ω_c Ĵ⁻¹ dz(ū) dt
+        for j in range(4):
+            f = ident.ROWS[j]
+            band = prm[P_DB_X + j]
+            if m[C_REACHED] > 0.0:  # at the depth only a settle_force moves the peg
+                band = max(band, prm[P_SETTLE])
+            excess[j] = max(abs(xf[f]) - band, 0.0)
+            if xf[f] < 0.0:
+                excess[j] = -excess[j]
+        for plane in range(2):
+            r_d, r_t = ident.PLANES[plane]
+            coupling = ident.used_matrix(idn[i, plane], plane, prm[P_COUPLING], jac)
+            # k_θ >= |∂u_d/∂θ| U_θ / U_d: a tilt step then moves the offset row's effort no
+            # faster than ω_c times the tilt's own (module doc, coupled tilt row)
+            jac[3] = max(jac[3], abs(coupling) * prm[P_U_T] / prm[P_U_X])
+            k_row[r_d], k_row[r_t] = jac[0], jac[3]
+            if prm[P_GATE] > 0.0:
+                # plane gate: a plane whose rows are both inside the dead band is not in
+                # contact (nothing to sense, Remark 2) and holds; one that is integrates both
+                # rows whole, so a weak row is not eaten by its dead band
+                if excess[r_d] == 0.0 and excess[r_t] == 0.0:
+                    continue
+                excess[r_d], excess[r_t] = xf[ident.ROWS[r_d]], xf[ident.ROWS[r_t]]
+            det = jac[0] * jac[3] - jac[1] * jac[2]
+            v_d = (jac[3] * excess[r_d] - jac[1] * excess[r_t]) / det
+            v_t = (jac[0] * excess[r_t] - jac[2] * excess[r_d]) / det
+            m[C_INT + ident.ROWS[r_d]] += prm[P_WC] * v_d * dt
+            if depth >= prm[P_TILT_DEPTH]:  # at the entry a tilt row cannot tell tilt
+                m[C_INT + ident.ROWS[r_t]] += prm[P_WC] * v_t * dt
+        for j in range(4):
+            f = ident.ROWS[j]
+            k_used = k_row[j]
+            amp = 0.0
+            if contact and m[C_LCMD] < prm[P_DEPTH]:  # dither while inserting: sized, capped
+                cap = prm[P_DITH_MAX_X] if j < 2 else prm[P_DITH_MAX_T]
+                size = prm[P_DITH_F] if j < 2 else prm[P_DITH_E]
+                amp = min(size / k_used, cap)
+            # faded in and out over about a dither period: switched at an arbitrary phase, it
+            # would step the command by up to its amplitude (a tight stiff fit at the depth)
+            m[C_DITHER + j] += prm[P_DITH_FADE] * (amp - m[C_DITHER + j])
+            dither = m[C_DITHER + j] * math.sin(prm[P_F0 + j] * m[C_T])
+            # the command leads the measured pose by at most the lateral lead: what a contact
+            # of unknown stiffness may be pushed before its force is seen (loop_delay later)
+            lead = prm[P_LEAD_X] if j < 2 else prm[P_LEAD_T]
+            target = m[C_RFR + f] - m[C_INT + f]
+            if target > x[i, f] + lead:
+                m[C_INT + f] = m[C_RFR + f] - (x[i, f] + lead)
+            elif target < x[i, f] - lead:
+                m[C_INT + f] = m[C_RFR + f] - (x[i, f] - lead)
+            command[i, f] = m[C_RFR + f] - m[C_INT + f] + dither
+        # depth: hold the lateral effort at 1 with the depth loop (module doc)
+        v = prm[P_SPEED]
+        rate = v
+        if contact:
+            scale = prm[P_U_X] if j_max < 2 else prm[P_U_T]
+            slope = abs(ident.plane_depth_gain(idn[i], j_max)) / scale  # ∂e/∂l [1/m]
+            rate = prm[P_WL] * (1.0 - effort) / max(slope, 1e-9)
+            rate = min(max(rate, -v), v)
+        if m[C_T] < m[C_HOLD]:
+            rate = min(rate, 0.0)
+        if w[i, 2] > prm[P_FZ_BACK]:
+            rate = -v
+        lc = m[C_LCMD] + rate * dt
+        lc = min(lc, x[i, 2] + v * prm[P_LEAD], prm[P_DEPTH])
+        m[C_LCMD] = lc
+        command[i, 2] = lc
+
+
+def load_step() -> None:
+    """Load the compiled kernel for the controller's argument types now (numba's cache, or
+    compiled on a machine's first run), not on the first period. No rows: nothing is stepped."""
+    rows = np.zeros((0, 5))
+    robust_rows(rows, rows, np.zeros(N_PARAMS), np.zeros((6, 5)), np.zeros((0, N_MAIN)),
+                 np.zeros((0, 2, ident.N_STATE)), np.zeros((0, 4, guard_mod.N_STATE)),
+                 rows)  # fmt: skip
