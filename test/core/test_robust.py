@@ -169,6 +169,11 @@ def test_robust_is_the_default_and_labels_stay_available() -> None:
         params_from_mapping({"bandwith": 10.0})
     with pytest.raises(ConfigError, match=r"params\.fz_back_off"):
         params_from_mapping({"fz_back_off": 400.0})  # above the force limit
+    for name, bad in (("settle_force", -0.1), ("depth_filter_frequency", 0.0),
+                      ("depth_filter_frequency", "400")):  # fmt: skip
+        with pytest.raises(ConfigError, match=rf"params\.{name}") as err:
+            params_from_mapping({name: bad})
+        assert str(bad) in str(err.value) and "expected a" in str(err.value), err.value
     assert isinstance(make_law("fbcc", _pair("clearance", 1e9)), RobustFbcc)
     assert not isinstance(make_law("admittance", _pair("clearance", 1e9)), RobustFbcc)
 
