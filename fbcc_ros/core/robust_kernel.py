@@ -25,7 +25,7 @@ from fbcc_ros.core.robust_params import DITHER_FRACTIONS, NOTCH_QUALITY, RobustP
 from fbcc_ros.core.segmentation import direct_row
 
 #: Per row j (dx, dy, theta_x, theta_y): the other row of its plane (identification.PLANES).
-PARTNER = (3, 2, 1, 0)
+PARTNER = tuple(sum(plane) - j for j in range(4) for plane in ident.PLANES if j in plane)
 
 # Columns of the per-trial state of the robust kernel (besides the identifier's and guard's).
 C_X = 0  # filtered rows ū (5, depth unused)
@@ -59,7 +59,7 @@ N_MAIN = 88
  P_F3, P_SU_X, P_SU_Y, P_SU_TX, P_SU_TY, P_MU0, P_COUPLING, P_GATE, P_NFLOOR_X,
  P_NFLOOR_Y, P_NFLOOR_TX, P_NFLOOR_TY, P_G_MIN_X, P_G_MIN_Y, P_G_MIN_TX,
  P_G_MIN_TY, P_LEAD_X, P_LEAD_T, P_TILT_DEPTH, P_DITH_FADE, P_NOTCH) = range(55)  # fmt: skip
-P_NOTCH_END = P_NOTCH + 24  # (b0, b1, a2) of each row's 2 notches
+P_NOTCH_END = P_NOTCH + 12  # (b0, b1, a2) of the notch at each row's dither frequency
 P_SETTLE = P_NOTCH_END  # the band of every row once the depth is reached
 P_DEPTH_F = P_NOTCH_END + 1  # the depth loop's low-pass (filters.second_order_coefficients)
 N_PARAMS = P_DEPTH_F + 6
@@ -109,10 +109,9 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
     prm[P_TILT_DEPTH] = p.tilt_depth
     # fade of the dither: a first-order lag of one period of the slowest dither
     prm[P_DITH_FADE] = 1.0 - math.exp(-min(DITHER_FRACTIONS))
-    for j in range(4):  # each row: its own dither's frequency, then its plane partner's
-        for n, row in enumerate((j, PARTNER[j])):
-            prm[P_NOTCH + 6 * j + 3 * n : P_NOTCH + 6 * j + 3 * n + 3] = (
-                notch_coefficients(prm[P_F0 + row], NOTCH_QUALITY, dt))
+    for j in range(4):
+        prm[P_NOTCH + 3 * j : P_NOTCH + 3 * j + 3] = notch_coefficients(
+            prm[P_F0 + j], NOTCH_QUALITY, dt)  # fmt: skip
     prm[P_SETTLE] = p.settle_force
     prm[P_DEPTH_F : P_DEPTH_F + 6] = second_order_coefficients(
         p.depth_filter_frequency, p.filter_damping, dt)  # fmt: skip
@@ -123,8 +122,8 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
 def without_dither(prm: FloatArray, bank: FloatArray, j: int, value: float) -> float:
     """Row j's value past the notches at its plane's two dither frequencies (module doc,
     excitation); advances their state in ``bank`` (16 columns: 4 per row)."""
-    for n in range(2):
-        value = notch_step(prm[P_NOTCH + 6 * j + 3 * n : P_NOTCH + 6 * j + 3 * n + 3],
+    for n, row in enumerate((j, PARTNER[j])):  # its own dither's, then its plane partner's
+        value = notch_step(prm[P_NOTCH + 3 * row : P_NOTCH + 3 * row + 3],
                            bank[4 * j + 2 * n : 4 * j + 2 * n + 2], value)  # fmt: skip
     return value  # type: ignore[no-any-return]
 
