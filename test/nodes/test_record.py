@@ -72,9 +72,11 @@ def test_a_killed_recorder_leaves_a_readable_truncated_bag_the_report_says_so(
     tmp_path: Path,
 ) -> None:
     """A whole cell (the bringup, not recording itself) recorded by fbcc_record, which is
-    SIGKILLed once its checkpoint counts 1000 commands: the bag reads up to its last flushed
-    chunk, and fbcc-report draws it and says it is truncated. The bringup waits for the
-    recorder (under load its discovery took 3.5 s, longer than the insertion)."""
+    SIGKILLed mid-insertion, once its checkpoint counts 400 commands: the bag reads up to its
+    last flushed chunk, and fbcc-report draws it and says it is truncated. The bringup waits for
+    the recorder (under load its discovery took 3.5 s, longer than the insertion). The trigger
+    is early because a starved two-core machine delivers a third of the 4000 commands (1270 in
+    one CI run, the checkpoint still short of 1000 when the cell ended)."""
     folder = tmp_path / "killed"
     log_path = tmp_path / "log.txt"
     log = log_path.open("w")
@@ -88,8 +90,8 @@ def test_a_killed_recorder_leaves_a_readable_truncated_bag_the_report_says_so(
                             stderr=subprocess.STDOUT)  # fmt: skip
     try:
         deadline = time.monotonic() + 90.0
-        while _recorded(folder, "/fbcc/command") < 1000:
-            assert cell.poll() in (None, 0), log_path.read_text()
+        while _recorded(folder, "/fbcc/command") < 400:
+            assert cell.poll() is None, log_path.read_text()  # killed while the cell runs
             assert time.monotonic() < deadline, log_path.read_text()
             time.sleep(0.1)
         assert recorder.poll() is None, log_path.read_text()
@@ -102,8 +104,8 @@ def test_a_killed_recorder_leaves_a_readable_truncated_bag_the_report_says_so(
                 proc.wait()
     bag = read_bag(folder)
     assert bag.truncated, "a killed recorder cannot have written the footer"
-    assert bag.counts["/joint_states"] > 1000, (bag.counts, log_path.read_text())
-    assert bag.counts["/fbcc/command"] > 500, bag.counts  # it was killed mid-insertion
+    # up to the last flushed chunk: at least half of what the checkpoint counted
+    assert bag.counts["/joint_states"] >= bag.counts["/fbcc/command"] > 200, bag.counts
     assert (folder / "metadata.yaml").exists()  # the last checkpoint's
     out = tmp_path / "report"
     scenario = ROOT / "config" / "scenarios" / "bringup_interference.yaml"
