@@ -163,3 +163,36 @@ def test_readme_python_examples_run(capsys: pytest.CaptureFixture[str]) -> None:
         exec(compile(block, "README.md", "exec"), {})  # each example stands alone
     out = capsys.readouterr().out
     assert "('D1', 'P0')" in out
+
+
+#: What each layer may import of the package (any other fbcc_ros import is an arrow against
+#: the layers): the core and the codec are ROS-free; the stages build on the core; the bag and
+#: the command-line tools on the stages and the codec; the nodes on everything below them.
+LAYERS = {
+    "core": {"core"},
+    "ros": {"core", "ros"},
+    "pipeline": {"core", "pipeline"},
+    "bag": {"core", "ros", "pipeline", "bag"},
+}
+
+
+def _imports(path: Path) -> set[str]:
+    """The fbcc_ros subpackages a module imports, at any depth of its code."""
+    import ast
+
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        names = []
+        if isinstance(node, ast.ImportFrom) and node.module:
+            names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+        elif isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        found |= {n.split(".")[1] for n in names if n.startswith("fbcc_ros.") and n.count(".")}
+    return found
+
+
+@pytest.mark.parametrize("layer", LAYERS)
+def test_each_layer_imports_only_the_layers_below_it(layer: str) -> None:
+    wrong = {str(path.relative_to(ROOT)): sorted(_imports(path) - LAYERS[layer])
+             for path in sorted((ROOT / "fbcc_ros" / layer).glob("*.py"))}  # fmt: skip
+    assert not {k: v for k, v in wrong.items() if v}, wrong

@@ -1,13 +1,13 @@
-"""Offline replay: a bag's raw wrenches and joint states through the compensation, kinematics and
-controller core, without ROS, and its commands against the ones the cell recorded.
+"""Offline replay: a bag's raw wrenches and joint states through the cell's stages
+(:mod:`fbcc_ros.pipeline`: compensation, kinematics, controller), without ROS, and its commands
+against the ones the cell recorded.
 
-What the live nodes did per message, done here in the bag's order:
+What the live nodes do per message, done here by the same stages in the bag's order:
 
-* ``joint_states`` → the feature solution (``CellKinematics.peg_in_hole``, then
-  ``features_from_pose`` with the nominal radius, as the controller reads the kinematics' pose)
-  → the supervisor's features; for a wrist sensor also the compensator's joints;
-* ``ft_sensor/raw`` → ``Compensator.reading`` → ``response_from_wrench`` → one control period
-  of the supervisor → the command features.
+* ``joint_states`` → the kinematics stage's peg pose → the controller stage's features; for a
+  wrist sensor also the compensation stage's joints;
+* ``ft_sensor/raw`` → the compensation stage → one control period of the controller stage → the
+  command.
 
 **Following the recorded flow.** A loaded cell drops samples: a node's queue overflows during a
 stall, and that node never sees the sample. The bag says which samples each node did process,
@@ -30,17 +30,23 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pinocchio as pin
 import yaml
 from numpy.typing import NDArray
 
 from fbcc_ros.bag.reader import Bag
 from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.features import features_from_pose
+from fbcc_ros.pipeline import compensation, controller, kinematics
+from fbcc_ros.pipeline.parameters import flatten, resolve
+from fbcc_ros.ros.cdr import decode_wrench
+from fbcc_ros.ros.convert import joints_from_cdr, pose_from_cdr, stamp_to_seconds, wrench_from_cdr
 
 FloatArray = NDArray[np.float64]
 
 #: The file ``fbcc_bringup`` writes beside the bag's .mcap: each cell node's parameters.
 PARAMS_FILE = "fbcc_params.yaml"
-#: The nodes whose core the offline replay runs, and the topics it needs from a bag.
+#: The nodes whose stage the offline replay runs, and the topics it needs from a bag.
 NODES = ("dynamic_compensation", "kinematics", "fbcc_controller")
 NEEDED = {"/joint_states": "sensor_msgs/msg/JointState",
           "/ft_sensor/raw": "geometry_msgs/msg/WrenchStamped"}  # fmt: skip
@@ -98,109 +104,49 @@ def node_parameters(bag_path: Path, files: Sequence[Path] = ()) -> dict[str, dic
             params = (body or {}).get("ros__parameters", {}) if isinstance(body, dict) else None
             if not isinstance(params, dict):
                 raise InputError(f"{file}: {node}", body, "ros__parameters: {name: value}")
-            given.setdefault(str(node).lstrip("/"), {}).update(flatten_parameters(params))
+            given.setdefault(str(node).lstrip("/"), {}).update(flatten(params))
     return given
 
 
-def flatten_parameters(params: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    """``{payload: {mass: 1}}`` → ``{"payload.mass": 1}``, as ROS names nested parameters."""
-    out: dict[str, Any] = {}
-    for name, value in params.items():
-        if isinstance(value, dict):
-            out.update(flatten_parameters(value, f"{prefix}{name}."))
-        else:
-            out[f"{prefix}{name}"] = value
-    return out
-
-
-def table_values(node: str, table: Sequence[Any], given: dict[str, Any]) -> dict[str, Any]:
-    """The table's defaults overridden by ``given``, checked as rclpy checks them on declare
-    (a name the node does not have, a number out of range, a string not among the choices)."""
-    from fbcc_ros.nodes.params import check_choice
-
-    by_name = {p.name: p for p in table}
-    unknown = sorted(set(given) - set(by_name))
-    if unknown:
-        raise ConfigError(f"{node} parameters", unknown, f"names of {node}: {sorted(by_name)}")
-    values = {p.name: given.get(p.name, p.default) for p in table}
-    for p in table:
-        value = values[p.name]
-        check_choice(p, value)
-        if p.low is not None and p.high is not None and not p.low <= value <= p.high:
-            raise ConfigError(f"{node}.{p.name}", value, f"within [{p.low}, {p.high}] {p.unit}")
-    return values
-
-
 class OfflineCell:
-    """The compensation, kinematics and controller core of one cell, configured as its nodes."""
+    """The compensation, kinematics and controller stages of one cell, configured as its nodes
+    (``given``: each node's parameters by name; the rest are the defaults)."""
 
     def __init__(self, given: dict[str, dict[str, Any]]) -> None:
-        from fbcc_ros.core import scenario as scenario_io
-        from fbcc_ros.core.compensation import Compensator
-        from fbcc_ros.core.control import make_law
-        from fbcc_ros.core.kinematics import CellKinematics
-        from fbcc_ros.core.supervisor import Supervisor
-        from fbcc_ros.nodes import dynamic_compensation, fbcc_controller, kinematics
-        from fbcc_ros.nodes.params import cell_from, find_scenario
-
-        comp = table_values(NODES[0], dynamic_compensation.TABLE, given.get(NODES[0], {}))
-        kin = table_values(NODES[1], kinematics.TABLE, given.get(NODES[1], {}))
-        ctrl = table_values(NODES[2], fbcc_controller.TABLE, given.get(NODES[2], {}))
+        stages = (compensation, kinematics, controller)
+        comp, kin, ctrl = (resolve(node, stage.TABLE, given.get(node, {}))
+                           for node, stage in zip(NODES, stages, strict=True))  # fmt: skip
         if comp["virtual_sensor"]:
             raise ConfigError("virtual_sensor", True, "false: the offline replay reads the raw "
                               "wrench (ft_sensor/raw), not external joint torques")  # fmt: skip
-        robot, hole = cell_from(kin)
-        self.kinematics = CellKinematics(robot, hole, kin["peg_radius"])
-        sensor_robot, sensor_hole = cell_from(comp)
-        self._setup = dynamic_compensation.setup_from(comp, sensor_hole)
-        self.wrist = self._setup.placement == "wrist"
-        self._sensor_robot = sensor_robot if self.wrist else None
-        self.compensator = Compensator(self._setup, self._sensor_robot)
-        sc = scenario_io.load(find_scenario(ctrl["scenario"]))
-        self.nominal = sc.geometry
-        law = make_law(ctrl["law"], sc.geometry, sc.params, sc.insertion)
-        limits = fbcc_controller.safety_limits(ctrl)
-        self.supervisor = Supervisor(law, 1.0 / ctrl["rate_hz"], limits)
+        self.compensation = compensation.CompensationStage(comp)
+        self.kinematics = kinematics.KinematicsStage(kin)
+        self.controller = controller.ControllerStage(ctrl)
+        self.wrist = self.compensation.robot is not None
 
-    def retare(self, samples: int, bias: Sequence[float] | None = None) -> None:
-        """A fresh compensator that tares on ``samples`` readings (at most its setup's), or
-        that uses ``bias`` as it is, with no tare."""
-        from fbcc_ros.core.compensation import Compensator
-
-        tare = 0 if bias is not None else min(samples, self._setup.tare_samples)
-        setup = dataclasses.replace(self._setup, tare_samples=tare)
-        if bias is not None:
-            setup = dataclasses.replace(setup, bias=tuple(bias))
-        self.compensator = Compensator(setup, self._sensor_robot)
-
-    def features(self, q: FloatArray) -> FloatArray:
-        """The feature solution, as the controller reads it from the kinematics' pose."""
-        from fbcc_ros.core.features import features_from_pose
-
-        peg = self.kinematics.peg_in_hole(q)
-        return features_from_pose(peg.rotation, peg.translation, self.nominal.peg_radius)
+    def features(self, command: pin.SE3) -> FloatArray:
+        """A commanded pose as the controller's features (its nominal radius)."""
+        radius = self.controller.nominal.peg_radius
+        return features_from_pose(command.rotation, command.translation, radius)
 
 
 def replay_offline(bag: Bag, given: dict[str, dict[str, Any]]) -> OfflineResult:
     """Runs ``bag`` through an :class:`OfflineCell` configured by ``given``."""
-    from fbcc_ros.core.wrench import response_from_wrench
-    from fbcc_ros.nodes.convert import joints_from_cdr, wrench_from_cdr
-
     bag.require(NEEDED)
     cell = OfflineCell(given)
-    names = cell.kinematics.robot.joint_names
+    names = cell.kinematics.joint_names
     flow = _recorded_flow(bag, cell)
     counts = flow.counts
     counts.update(compensated=0, stepped=0, dropped_by_controller=0)
-    sup = cell.supervisor
+    ctrl = cell.controller
     start = min(flow.commands) if flow.commands else None
     t, commands, matched = [], [], []
     for m in bag.messages:
         if m.topic == "/joint_states":
             stamp, q, dq = joints_from_cdr(m.data, names)
-            sup.on_features(stamp, cell.features(q))
+            ctrl.features(stamp, cell.kinematics.joints(q))
             if cell.wrist:
-                cell.compensator.joints(stamp, q, dq)
+                cell.compensation.joints(stamp, q, dq)
             continue
         if m.topic != "/ft_sensor/raw":
             continue
@@ -208,7 +154,7 @@ def replay_offline(bag: Bag, given: dict[str, dict[str, Any]]) -> OfflineResult:
         key = _key(stamp)
         if flow.fed is not None and key not in flow.fed:
             continue
-        out = cell.compensator.reading(stamp, frame, wrench)
+        out = cell.compensation.reading(stamp, frame, wrench)
         if out is None:
             continue
         counts["compensated"] += 1
@@ -218,19 +164,18 @@ def replay_offline(bag: Bag, given: dict[str, dict[str, Any]]) -> OfflineResult:
             if key not in flow.commands:
                 counts["dropped_by_controller"] += 1
                 continue
-        if sup.phase == "idle":
-            sup.start(stamp)
-        command = sup.on_response(stamp, response_from_wrench(out.wrench), stamp)
+        if ctrl.sup.phase == "idle":
+            ctrl.sup.start(stamp)
+        command = ctrl.wrench(stamp, stamp, out.wrench)
         if command is None:
             continue
         counts["stepped"] += 1
         t.append(stamp)
-        commands.append(command.copy())
+        commands.append(cell.features(command))
         matched.append(flow.commands.get(key, np.full(5, np.nan)))
-    phase = f"{sup.phase}: {sup.reason}" if sup.reason else sup.phase
-    counts["bias_used"] = cell.compensator.bias.tolist()  # recorded, or tared from the bag
+    counts["bias_used"] = cell.compensation.comp.bias.tolist()  # recorded, or tared from the bag
     return OfflineResult(np.array(t), np.array(commands).reshape(-1, 5),
-                         np.array(matched).reshape(-1, 5), counts, phase)  # fmt: skip
+                         np.array(matched).reshape(-1, 5), counts, ctrl.said)  # fmt: skip
 
 
 @dataclasses.dataclass
@@ -250,10 +195,6 @@ def _recorded_flow(bag: Bag, cell: OfflineCell) -> _Flow:
     without it gets the tare redone on the ``tare_samples`` raw samples before the first output
     (fewer if the bag begins later); a sample the live tare missed then shifts the bias a little
     (``bias: retared`` in the counts). Sets ``cell``'s compensator to match."""
-    from fbcc_ros.core.features import features_from_pose
-    from fbcc_ros.nodes.cdr import decode_wrench
-    from fbcc_ros.nodes.convert import pose_from_cdr, stamp_to_seconds
-
     def keys(topic: str) -> list[int]:
         return [_key(stamp_to_seconds(decode_wrench(m.data)[0])) for m in bag.of(topic)]
 
@@ -261,8 +202,7 @@ def _recorded_flow(bag: Bag, cell: OfflineCell) -> _Flow:
     commands: dict[int, FloatArray] = {}
     for m in bag.of("/fbcc/command"):  # the peg's pose in {H}: back to the controller's features
         stamp, peg = pose_from_cdr(m.data)
-        radius = cell.nominal.peg_radius
-        commands[_key(stamp)] = features_from_pose(peg.rotation, peg.translation, radius)
+        commands[_key(stamp)] = cell.features(peg)
     counts: dict[str, Any] = {"raw": len(raw), "dropped_by_compensation": 0}
     if not outputs:
         return _Flow(None, commands, counts)
@@ -270,11 +210,11 @@ def _recorded_flow(bag: Bag, cell: OfflineCell) -> _Flow:
     counts["dropped_by_compensation"] = sum(k >= first and k not in outputs for k in raw)
     biases = list(bag.of("/ft_sensor/bias"))
     if biases:
-        cell.retare(0, decode_wrench(biases[-1].data)[2])
+        cell.compensation.retare(0, decode_wrench(biases[-1].data)[2])
         counts["bias"] = "recorded"
         return _Flow(outputs, commands, counts)
     before = [k for k in raw if k < first]
-    tare = before[len(before) - min(len(before), cell.compensator.setup.tare_samples) :]
-    cell.retare(len(tare))
+    tare = before[len(before) - min(len(before), cell.compensation.setup.tare_samples) :]
+    cell.compensation.retare(len(tare))
     counts.update(bias="retared", tare_in_bag=len(tare))
     return _Flow(set(tare) | outputs, commands, counts)

@@ -64,28 +64,28 @@ class Session:
 
 def nominal_geometry(bag: Bag, scenario: Path | None) -> PegHole:
     """The controller's nominal pair: ``--scenario``, else the bag's controller parameters."""
-    from fbcc_ros.bag.offline import node_parameters, table_values
+    from fbcc_ros.bag.offline import node_parameters
     from fbcc_ros.core import scenario as scenario_io
-    from fbcc_ros.nodes import fbcc_controller
-    from fbcc_ros.nodes.params import find_scenario
+    from fbcc_ros.pipeline import controller
+    from fbcc_ros.pipeline.parameters import resolve
 
     if scenario is None:
         given = node_parameters(bag.path).get("fbcc_controller", {})
-        values = table_values("fbcc_controller", fbcc_controller.TABLE, given)
+        values = resolve("fbcc_controller", controller.TABLE, given)
         scenario = Path(values["scenario"])
         if "scenario" not in given:
             print(f"fbcc-report: no controller parameters beside the bag; the nominal pair is "
                   f"the controller's default scenario {scenario} (else: --scenario)",
                   file=sys.stderr)  # fmt: skip
-    return scenario_io.load(find_scenario(str(scenario))).geometry
+    return scenario_io.load(scenario_io.find(str(scenario))).geometry
 
 
 def session(bag: Bag, nominal: PegHole) -> Session:
     """The bag's samples, decoded and aligned."""
     from fbcc_ros.core.features import features_from_pose
     from fbcc_ros.core.wrench import response_from_wrench
-    from fbcc_ros.nodes.cdr import decode_array, decode_string
-    from fbcc_ros.nodes.convert import pose_from_cdr, wrench_from_cdr
+    from fbcc_ros.ros.cdr import decode_array, decode_string
+    from fbcc_ros.ros.convert import pose_from_cdr, wrench_from_cdr
 
     bag.require(NEEDED)
     r = nominal.peg_radius
@@ -210,7 +210,7 @@ def markdown(summary: dict[str, Any]) -> str:
 def contact_estimate(bag: Bag, t0: float) -> tuple[np.ndarray, np.ndarray] | None:
     """The robust law's identification (``fbcc/contact_estimate``): times [s from t0] and rows
     in ``identification.ESTIMATE_FIELDS`` order; None when the bag has none."""
-    from fbcc_ros.nodes.cdr import decode_array
+    from fbcc_ros.ros.cdr import decode_array
 
     if not bag.counts.get("/fbcc/contact_estimate"):
         return None

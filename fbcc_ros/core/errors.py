@@ -7,7 +7,9 @@ Physical outcomes (no contact, jamming, a force limit) are states, never excepti
 
 from __future__ import annotations
 
+import difflib
 import math
+from collections.abc import Sequence
 from typing import Any
 
 
@@ -52,3 +54,10 @@ def require_number(field: str, value: Any, *, positive: bool = False) -> float:
     if not math.isfinite(value) or (positive and not value > 0):
         raise ConfigError(field, value, "a finite number > 0" if positive else "a finite number")
     return float(value)
+
+
+def closest(name: str, names: Sequence[str]) -> str:
+    """``"did you mean 'x'? "`` for the name among ``names`` closest to a misspelt ``name``,
+    else ``""``: the start of an error's ``allowed``."""
+    match = difflib.get_close_matches(name, list(names), n=1)
+    return f"did you mean {match[0]!r}? " if match else ""

@@ -535,7 +535,8 @@ class CellKinematics:
     Args:
         robot: The arm, with its peg frame.
         hole_in_base: Pose of {H} in the base frame, ``T_base_H``.
-        peg_radius: r [m], used by the feature conversion (``fbcc_ros.core.features``).
+        peg_radius: r [m], used by the feature conversion (``fbcc_ros.core.features``); None
+            for a cell that only solves poses (:meth:`pose_solution`).
         settings: IK settings.
     """
 
@@ -543,10 +544,10 @@ class CellKinematics:
         self,
         robot: RobotModel,
         hole_in_base: pin.SE3,
-        peg_radius: float,
+        peg_radius: float | None,
         settings: IkSettings = IkSettings(),
     ) -> None:
-        if not (peg_radius > 0.0 and math.isfinite(peg_radius)):
+        if peg_radius is not None and not (peg_radius > 0.0 and math.isfinite(peg_radius)):
             raise ConfigError("peg_radius", peg_radius, "a radius > 0 [m]")
         self.robot = robot
         self.hole_in_base = hole_in_base.copy()
@@ -561,7 +562,12 @@ class CellKinematics:
     def features(self, q: ArrayLike) -> FloatArray:
         """Feature solution: joints → ``(dx, dy, l, theta_x, theta_y)`` [m, rad]."""
         peg = self.peg_in_hole(q)
-        return features_from_pose(peg.rotation, peg.translation, self.peg_radius)
+        return features_from_pose(peg.rotation, peg.translation, self._radius())
+
+    def _radius(self) -> float:
+        if self.peg_radius is None:
+            raise ConfigError("peg_radius", None, "a radius > 0 [m] for the feature conversion")
+        return self.peg_radius
 
     def peg_target(self, command_features: ArrayLike, spin: float) -> pin.SE3:
         """``T_base_P`` of the command features, with the peg's spin about its axis."""
@@ -572,7 +578,7 @@ class CellKinematics:
                 command_features,
                 "5 finite values (dx, dy, l, theta_x, theta_y)",
             )
-        rotation, position = pose_from_features(x_c, self.peg_radius, spin)
+        rotation, position = pose_from_features(x_c, self._radius(), spin)
         return self.hole_in_base * pin.SE3(rotation, position)
 
     def tcp_solution(
@@ -584,15 +590,29 @@ class CellKinematics:
         ``dt``, the joints must be reachable within one period at the velocity limits.
         Raises :class:`IkError` rather than return a command that misses the target.
         """
-        robot = self.robot
-        q_now = _checked_start(robot, q_current, dt, "q_current")
-        spin = spin_of(
-            self.hole_in_base.actInv(robot._frame_in_base(q_now, robot.peg_id)).rotation
-        )
-        target = self.peg_target(command_features, spin)
-        solution = _clik(robot, target, q_now, dt, self.settings)
-        flange = target * robot._flange_in_peg
-        return TcpCommand(solution.q, flange, target, solution.iterations)
+        q_now = _checked_start(self.robot, q_current, dt, "q_current")
+        return self._solve(self.peg_target(command_features, self._spin(q_now)), q_now, dt)
+
+    def pose_solution(
+        self, peg_in_hole: pin.SE3, q_current: ArrayLike, dt: float | None = None
+    ) -> TcpCommand:
+        """TCP solution of a commanded peg pose in {H} (``T_H_P``), as :meth:`tcp_solution`:
+        the peg keeps its current spin about its own axis, whatever the command's."""
+        q_now = _checked_start(self.robot, q_current, dt, "q_current")
+        rotation = peg_in_hole.rotation
+        turn = self._spin(q_now) - spin_of(rotation)  # R_HP = S(a) R_aligned R_z(spin)
+        c, s = math.cos(turn), math.sin(turn)
+        spun = rotation @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        return self._solve(self.hole_in_base * pin.SE3(spun, peg_in_hole.translation), q_now, dt)
+
+    def _spin(self, q: FloatArray) -> float:
+        return spin_of(self.hole_in_base.actInv(self.robot._frame_in_base(q, self.robot.peg_id))
+                       .rotation)  # fmt: skip
+
+    def _solve(self, target: pin.SE3, q_now: FloatArray, dt: float | None) -> TcpCommand:
+        solution = _clik(self.robot, target, q_now, dt, self.settings)
+        return TcpCommand(solution.q, target * self.robot._flange_in_peg, target,
+                          solution.iterations)  # fmt: skip
 
 
 @dataclasses.dataclass(frozen=True)

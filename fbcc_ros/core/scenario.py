@@ -41,7 +41,7 @@ import yaml
 
 from fbcc_ros.core.contact import FloatArray, PegHole
 from fbcc_ros.core.control import LAWS, Insertion, Params, params_from_mapping
-from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.errors import ConfigError, closest
 from fbcc_ros.core.holder import Holder
 
 #: Plausibility ranges (SI): a value outside smells of mm, degrees or GPa given by mistake.
@@ -131,7 +131,8 @@ def _mapping(
     unknown = [k for k in value if k not in allowed]
     if unknown:
         raise ConfigError(f"{key}.{unknown[0]}", value[unknown[0]],
-                          f"a key of {key}: one of {', '.join(allowed)}")  # fmt: skip
+                          f"{closest(str(unknown[0]), allowed)}a key of {key}: one of "
+                          f"{', '.join(allowed)}")  # fmt: skip
     missing = [k for k in required if k not in value]
     if missing:
         raise ConfigError(f"{key}.{missing[0]}", "<missing>", "a value: this key is required")
@@ -294,3 +295,23 @@ def load(path: str | Path) -> Scenario:
     except yaml.YAMLError as exc:
         raise ConfigError("scenario file", str(p), f"valid YAML ({exc})") from None
     return validate(data, p.stem)
+
+
+def find(value: str) -> Path:
+    """The scenario file ``value`` names: a path as given, else relative to the package's share
+    directory (an installed package), else to the source checkout."""
+    path = Path(value)
+    if path.is_file():
+        return path
+    try:
+        from ament_index_python.packages import get_package_share_directory
+
+        shared = Path(get_package_share_directory("fbcc_ros")) / value
+        if shared.is_file():
+            return shared
+    except (ImportError, LookupError, KeyError, ValueError, OSError):
+        pass
+    package = Path(__file__).resolve().parents[2] / value  # a source checkout
+    if package.is_file():
+        return package
+    raise ConfigError("scenario", value, "the path of a scenario YAML (DESIGN §4)")

@@ -18,7 +18,9 @@ The plant, per trial:
   ideal apart from that bias (issue "dynamic compensation" models the rest).
 
 The controller sees the measured wrench and the depth of ``p`` (its feature solution), and knows
-only the nominal geometry. Each step: contact → sensor → control law → robot.
+only the nominal geometry. Each step: contact → sensor → control law → the supervisor's step
+clip (:meth:`fbcc_ros.core.supervisor.SafetyLimits.clip`, the controller's default limits, as
+the ROS cell's controller applies them) → robot.
 
 Metrics (summary keys of DESIGN §4), per trial:
 
@@ -68,6 +70,7 @@ from fbcc_ros.core.features import true_rows
 from fbcc_ros.core.holder_solver import HolderSolver
 from fbcc_ros.core.scenario import Scenario, validate
 from fbcc_ros.core.segmentation import feature_state
+from fbcc_ros.core.supervisor import SafetyLimits
 
 #: Fraction of the run at its end over which the residual responses are averaged.
 RESIDUAL_WINDOW = 0.1
@@ -198,6 +201,7 @@ def simulate(
     geometries: Sequence[PegHole] | None = None,
     record: bool = True,
     seed: int | None = None,
+    limits: SafetyLimits | None = None,
 ) -> tuple[Outcome, Trajectory | None]:
     """Run N trials of the closed loop in lockstep.
 
@@ -208,6 +212,7 @@ def simulate(
         geometries: True geometry per trial (N of them); default the nominal one.
         record: Keep the full signals (memory T × N × 20 floats).
         seed: Seed of the sensor noise; default the scenario's.
+        limits: The supervisor's step limits; default the controller's.
     """
     dev = np.atleast_2d(sc.initial if initial is None else np.asarray(initial, dtype=float))
     n = len(dev)
@@ -226,6 +231,8 @@ def simulate(
     holder = HolderSolver(sc.holder) if sc.holder is not None else None
     pose = np.zeros((n, 5))  # the robot's pose as features of the believed hole
     law.reset(pose)
+    command = pose.copy()  # the supervisor starts from the measured pose
+    limits = limits or SafetyLimits()
     metrics = _Metrics(sc, dev)
     unconverged = np.zeros(n)  # steps whose holder equilibrium the solver did not converge
     chunks: list[tuple[np.ndarray, ...]] = []
@@ -246,7 +253,7 @@ def simulate(
                 w = settled.wrench
                 x = x + settled.delta
             measured = w + sc.bias + sc.noise * rng.standard_normal((n, 5))
-            command = law.step(measured, pose, dt)
+            command = limits.clip(command, law.step(measured, pose, dt))
             pose += alpha * (command - pose)
             buf_x[j], buf_w[j], buf_m[j], buf_c[j] = x, w, measured, command
         t = (k0 + np.arange(kk)) * dt

@@ -58,6 +58,12 @@ class SafetyLimits:
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(name, value, "a finite number > 0 (s, m, rad)")
 
+    def clip(self, command: FloatArray, target: FloatArray) -> FloatArray:
+        """The next command: ``target`` features, (5,) or (N, 5), reached from ``command`` by
+        at most ``max_step`` (dx, dy, l) and ``max_step_angle`` (tilts)."""
+        bound = np.array([self.max_step] * 3 + [self.max_step_angle] * 2)
+        return command + (target - command).clip(-bound, bound)  # type: ignore[no-any-return]
+
 
 class Supervisor:
     """Runs one law with phases and safety checks.
@@ -89,7 +95,6 @@ class Supervisor:
         self._t_wrench = -math.inf
         self._t_ran = -math.inf  # the last call of watchdog or on_response
         self.stalls = 0
-        self._max_step = np.array([limits.max_step] * 3 + [limits.max_step_angle] * 2)
 
     @property
     def active(self) -> bool:
@@ -185,6 +190,5 @@ class Supervisor:
             )
         elif law_phase == "inserted":
             self.phase = "inserted"
-        # at most max_step per command, whatever the law asks
-        self.command = self.command + (x_c - self.command).clip(-self._max_step, self._max_step)
+        self.command = self.limits.clip(self.command, x_c)  # whatever the law asks
         return self.command

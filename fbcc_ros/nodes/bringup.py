@@ -101,8 +101,7 @@ def cell_nodes(
                   "rate_hz": sc.rate_hz}),
         NodeSpec("dynamic_compensation", DynamicCompensationNode,
                  {"sensor_xyz": acting, "acting_point": acting, "tare_samples": TARE_SAMPLES}),
-        NodeSpec("kinematics", KinematicsNode,
-                 {"peg_radius": sc.geometry.peg_radius, "rate_hz": sc.rate_hz}),
+        NodeSpec("kinematics", KinematicsNode, {"rate_hz": sc.rate_hz}),
         NodeSpec("fbcc_controller", FbccControllerNode,
                  {"scenario": path, "law": law, "rate_hz": sc.rate_hz,
                   **({"timeout": PROCESSES_TIMEOUT} if processes else {})}),
@@ -214,9 +213,7 @@ def run_cell(
     """One assembly through the ROS graph, recorded into ``bag`` if given (or, with
     ``wait_for_recorder``, by an fbcc_record started on its own, waited for); returns the
     summary (with CPU per node, and what the bag holds)."""
-    from fbcc_ros.nodes.params import find_scenario
-
-    path = str(find_scenario(scenario_path))
+    path = str(scenario_io.find(scenario_path))
     sc = scenario_io.load(path)
     specs = cell_nodes(path, sc, law, draw_geometry, seed, processes)
     if bag is not None:
@@ -263,12 +260,10 @@ def run_cell(
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
-        from fbcc_ros.nodes.params import find_scenario
-
         if args.wait_for_recorder and not args.no_record:
             raise InputError("--wait-for-recorder", True, "with --no-record (a recorder of "
                              "your own; the bringup's own is always waited for)")  # fmt: skip
-        sc = scenario_io.load(find_scenario(args.scenario))
+        sc = scenario_io.load(scenario_io.find(args.scenario))
         law = args.law or sc.laws[0]
         print(
             f"fbcc_bringup: {sc.name}, law {law}, {sc.duration:.1f} s at {sc.rate_hz:.0f} Hz "

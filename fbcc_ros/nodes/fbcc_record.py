@@ -22,7 +22,8 @@ from fbcc_ros.bag.schema import message_class
 from fbcc_ros.bag.writer import BagWriter
 from fbcc_ros.nodes import topics
 from fbcc_ros.nodes.diagnostics import counter_report, publish_diagnostics
-from fbcc_ros.nodes.params import Param, declare, run
+from fbcc_ros.nodes.params import declare, run
+from fbcc_ros.pipeline.parameters import Param
 
 #: What a session of the cell needs for replay and report (topics.py names, relative).
 CELL_TOPICS = [

@@ -6,6 +6,7 @@ pose in {H}, from which the features, depth included, follow by ``features_from_
 ``fbcc/tcp_command`` (PoseStamped: the peg's target in the base frame) and ``joint_command``
 (Float64MultiArray of positions in the robot's joint order).
 
+The feature and TCP solutions are :class:`~fbcc_ros.pipeline.kinematics.KinematicsStage`'s.
 Why Float64MultiArray: it is what ros2_controllers' forward position controller streams at the
 control rate; a JointTrajectory per 1 ms step would make a trajectory controller re-plan every
 period. An unreachable command (``IkError``) publishes nothing (the robot holds its last
@@ -22,36 +23,26 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 
 from fbcc_ros.core.errors import FbccError
-from fbcc_ros.core.features import features_from_pose
-from fbcc_ros.core.kinematics import CellKinematics, IkError
+from fbcc_ros.core.kinematics import IkError
 from fbcc_ros.nodes import topics
-from fbcc_ros.nodes.convert import joints_from_cdr, pose_from_cdr, pose_to_cdr, positions_to_cdr
 from fbcc_ros.nodes.diagnostics import counter_report, publish_diagnostics
-from fbcc_ros.nodes.params import CELL, Param, cell_from, declare, run
+from fbcc_ros.nodes.params import declare, run
+from fbcc_ros.pipeline.kinematics import TABLE, KinematicsStage
+from fbcc_ros.ros.convert import joints_from_cdr, pose_from_cdr, pose_to_cdr, positions_to_cdr
 
-TABLE = (
-    *CELL,
-    Param("peg_radius", 5.04e-3, "nominal peg radius r (features <-> pose)", "m", 1e-4, 0.5),
-    Param("rate_hz", 1000.0, "control rate: the IK keeps each step within one period's joint "
-          "velocity limits", "Hz", 1.0, 10000.0),
-)  # fmt: skip
+__all__ = ["TABLE", "KinematicsNode"]
 
 
 class KinematicsNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("kinematics", **kwargs)
-        values = declare(self, TABLE)
-        robot, hole = cell_from(values)
-        self.cell = CellKinematics(robot, hole, values["peg_radius"])
-        self.dt = 1.0 / values["rate_hz"]
-        self.q = None
-        self.q_command = None
+        self.stage = KinematicsStage(declare(self, TABLE))
         self.failures = 0
         self.pub_features = self.create_publisher(PoseStamped, topics.FEATURES, 10)
         self.pub_tcp = self.create_publisher(PoseStamped, topics.TCP_COMMAND, 10)
         self.pub_joints = self.create_publisher(Float64MultiArray, topics.JOINT_COMMAND, 10)
         self.pub_status = self.create_publisher(String, topics.KINEMATICS_STATUS, 10)
-        # raw: CDR bytes, decoded by fbcc_ros.nodes.convert (no rclpy message objects at 1 kHz)
+        # raw: CDR bytes, decoded by fbcc_ros.ros.convert (no rclpy message objects at 1 kHz)
         self.create_subscription(JointState, topics.JOINT_STATES, self.on_joints, 10, raw=True)
         self.create_subscription(PoseStamped, topics.COMMAND, self.on_command, 10, raw=True)
         publish_diagnostics(
@@ -60,28 +51,24 @@ class KinematicsNode(Node):
 
     def on_joints(self, data: bytes) -> None:
         try:
-            stamp, q, _ = joints_from_cdr(data, self.cell.robot.joint_names)
-            peg = self.cell.peg_in_hole(q)
+            stamp, q, _ = joints_from_cdr(data, self.stage.joint_names)
+            peg = self.stage.joints(q)
         except FbccError as exc:
             self.get_logger().warn(f"joint state rejected: {exc}", throttle_duration_sec=1.0)
             return
-        self.q = q
         self.pub_features.publish(pose_to_cdr(peg, topics.HOLE_FRAME, stamp))
 
     def on_command(self, data: bytes) -> None:
-        if self.q is None:
-            return
         try:
             stamp, pose = pose_from_cdr(data)
-            x_c = features_from_pose(pose.rotation, pose.translation, self.cell.peg_radius)
-            start = self.q if self.q_command is None else self.q_command
-            solution = self.cell.tcp_solution(x_c, start, self.dt)
+            solution = self.stage.command(pose)
         except (IkError, FbccError) as exc:
             self.failures += 1
             self.pub_status.publish(String(data=f"IK failed: {exc}"))
             self.get_logger().error(f"command not followed: {exc}", throttle_duration_sec=1.0)
             return
-        self.q_command = solution.q
+        if solution is None:  # no joints measured yet
+            return
         self.pub_joints.publish(positions_to_cdr(solution.q))
         if self.pub_tcp.get_subscription_count():  # an observer's topic: skip it unheard
             self.pub_tcp.publish(pose_to_cdr(solution.peg_in_base, topics.BASE_FRAME, stamp))

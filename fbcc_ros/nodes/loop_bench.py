@@ -104,7 +104,7 @@ def measure(
 ) -> LoopFigures:
     """Runs the ``bare`` or the ``fbcc`` chain for ``seconds`` at the scenario's rate; with
     ``robust``, the ``fbcc`` chain runs the stiffness-robust law (module doc)."""
-    from fbcc_ros.nodes.params import find_scenario
+    from fbcc_ros.core.scenario import find as find_scenario
 
     path = find_scenario(SCENARIO)
     if not robust:

@@ -28,10 +28,12 @@ from fbcc_ros.core.errors import FbccError
 from fbcc_ros.core.mapping_study import perturbed
 from fbcc_ros.core.payload import Payload
 from fbcc_ros.nodes import topics
-from fbcc_ros.nodes.cdr import encode_array
-from fbcc_ros.nodes.convert import joints_to_cdr, positions_from_cdr, wrench_to_cdr
 from fbcc_ros.nodes.diagnostics import counter_report, publish_diagnostics
-from fbcc_ros.nodes.params import CELL, Param, cell_from, declare, find_scenario, run
+from fbcc_ros.nodes.params import declare, run
+from fbcc_ros.pipeline.kinematics import CELL, cell_from
+from fbcc_ros.pipeline.parameters import Param
+from fbcc_ros.ros.cdr import encode_array
+from fbcc_ros.ros.convert import joints_to_cdr, positions_from_cdr, wrench_to_cdr
 
 TABLE = (
     Param("scenario", "config/scenarios/bringup_interference.yaml", "scenario YAML: the true "
@@ -49,7 +51,7 @@ class MockCellNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("mock_cell", **kwargs)
         values = declare(self, TABLE)
-        sc = scenario_io.load(find_scenario(values["scenario"]))
+        sc = scenario_io.load(scenario_io.find(values["scenario"]))
         robot, hole = cell_from(values)
         geometry = None
         if values["draw_geometry"]:
@@ -66,7 +68,7 @@ class MockCellNode(Node):
         self.pub_joints = self.create_publisher(JointState, topics.JOINT_STATES, 10)
         self.pub_raw = self.create_publisher(WrenchStamped, topics.RAW_WRENCH, 10)
         self.pub_truth = self.create_publisher(Float64MultiArray, topics.TRUTH, 100)
-        # raw: CDR bytes, decoded by fbcc_ros.nodes.convert (no rclpy message objects at 1 kHz)
+        # raw: CDR bytes, decoded by fbcc_ros.ros.convert (no rclpy message objects at 1 kHz)
         sub = self.create_subscription
         sub(Float64MultiArray, topics.JOINT_COMMAND, self.on_command, 10, raw=True)
         self.create_timer(self.dt, self.on_tick)

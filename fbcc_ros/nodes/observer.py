@@ -19,8 +19,8 @@ from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import Trigger
 
 from fbcc_ros.nodes import topics
-from fbcc_ros.nodes.cdr import decode_array, decode_pose
-from fbcc_ros.nodes.convert import stamp_to_seconds
+from fbcc_ros.ros.cdr import decode_array, decode_pose
+from fbcc_ros.ros.convert import stamp_to_seconds
 
 
 class Observer(Node):

@@ -1,12 +1,11 @@
-"""Parameter tables: each node declares its parameters from one table (name, default, unit,
-description, range, read_only) with rclpy's descriptors, which rclpy enforces on declare and on
-set; values are then validated once more by the core's dataclasses (cross-field checks)."""
+"""Parameters of a node: its stage's table (:mod:`fbcc_ros.pipeline.parameters`) declared with
+rclpy's descriptors, which rclpy enforces on declare and on set; values are then validated once
+more by the core's dataclasses (cross-field checks). A key the node does not declare (a misspelt
+one in its YAML) is refused at start-up, with the closest declared name."""
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable, Sequence
-from pathlib import Path
 from typing import Any
 
 from rcl_interfaces.msg import (
@@ -17,41 +16,29 @@ from rcl_interfaces.msg import (
 )
 from rclpy.node import Node
 
-from fbcc_ros.core.errors import ConfigError, FbccError
+from fbcc_ros.core.errors import FbccError
+from fbcc_ros.pipeline.parameters import Param, unknown_names
+
+#: Parameters rclpy itself gives every node (and its QoS overrides, ``qos_overrides.*``).
+ROS_OWN = ("use_sim_time", "start_type_description_service")
 
 
-@dataclasses.dataclass(frozen=True)
-class Param:
-    """One parameter: ``name`` as in the YAML (dots for nesting), its default, unit and meaning.
-
-    ``low``/``high`` bound a number (rclpy refuses values outside); ``choices`` a string.
-    """
-
-    name: str
-    default: Any
-    description: str
-    unit: str = ""
-    low: float | None = None
-    high: float | None = None
-    read_only: bool = True
-    choices: tuple[str, ...] = ()
-
-    def descriptor(self) -> ParameterDescriptor:
-        unit = f" [{self.unit}]" if self.unit else ""
-        choices = f" (one of {', '.join(self.choices)})" if self.choices else ""
-        desc = ParameterDescriptor(
-            description=f"{self.description}{unit}{choices}", read_only=self.read_only
-        )
-        if self.low is not None and self.high is not None:
-            if isinstance(self.default, int) and not isinstance(self.default, bool):
-                desc.integer_range = [
-                    IntegerRange(from_value=int(self.low), to_value=int(self.high), step=1)
-                ]
-            elif isinstance(self.default, float):
-                desc.floating_point_range = [
-                    FloatingPointRange(from_value=self.low, to_value=self.high, step=0.0)
-                ]
-        return desc
+def descriptor(p: Param) -> ParameterDescriptor:
+    """rclpy's descriptor of ``p``: its meaning and unit, read-only, its range."""
+    unit = f" [{p.unit}]" if p.unit else ""
+    choices = f" (one of {', '.join(p.choices)})" if p.choices else ""
+    desc = ParameterDescriptor(description=f"{p.description}{unit}{choices}",
+                               read_only=p.read_only)  # fmt: skip
+    if p.low is not None and p.high is not None:
+        if isinstance(p.default, int) and not isinstance(p.default, bool):
+            desc.integer_range = [
+                IntegerRange(from_value=int(p.low), to_value=int(p.high), step=1)
+            ]
+        elif isinstance(p.default, float):
+            desc.floating_point_range = [
+                FloatingPointRange(from_value=p.low, to_value=p.high, step=0.0)
+            ]
+    return desc
 
 
 def declare(
@@ -61,15 +48,18 @@ def declare(
 ) -> dict[str, Any]:
     """Declares the table's parameters and returns their values by name.
 
-    Start-up values outside a range or a choice raise (rclpy's exception or
-    :class:`~fbcc_ros.core.errors.ConfigError`). With ``apply``, a runtime change of a
-    writable parameter is passed to it with all current values; if it raises an FbccError the
-    change is refused with the reason.
+    Start-up values outside a range or a choice, and keys the table does not declare, raise
+    (rclpy's exception or :class:`~fbcc_ros.core.errors.ConfigError`). With ``apply``, a
+    runtime change of a writable parameter is passed to it with all current values; if it
+    raises an FbccError the change is refused with the reason.
     """
+    given = [name for name in node._parameter_overrides
+             if name not in ROS_OWN and not name.startswith("qos_overrides.")]  # fmt: skip
+    unknown_names(node.get_name(), table, given)
     values: dict[str, Any] = {}
     for p in table:
-        values[p.name] = node.declare_parameter(p.name, p.default, p.descriptor()).value
-        check_choice(p, values[p.name])
+        values[p.name] = node.declare_parameter(p.name, p.default, descriptor(p)).value
+        p.check(values[p.name])
     by_name = {p.name: p for p in table}
 
     def on_set(changes: list[Any]) -> SetParametersResult:
@@ -77,7 +67,7 @@ def declare(
         for change in changes:
             if change.name in by_name:
                 try:
-                    check_choice(by_name[change.name], change.value)
+                    by_name[change.name].check(change.value)
                 except FbccError as exc:
                     return SetParametersResult(successful=False, reason=str(exc))
                 merged[change.name] = change.value
@@ -91,34 +81,6 @@ def declare(
 
     node.add_on_set_parameters_callback(on_set)
     return values
-
-
-def check_choice(p: Param, value: Any) -> None:
-    if p.choices and value not in p.choices:
-        raise ConfigError(p.name, value, f"one of {list(p.choices)}")
-
-
-#: The arm, its tool and where the hole is: shared by the nodes that need kinematics.
-CELL = (
-    Param("robot", "iiwa14", "robot model", choices=("iiwa14", "panda", "ur5")),
-    Param("tool_xyz", [0.0, 0.0, 0.10], "peg tip centre in the flange frame", "m"),
-    Param("tool_rpy", [0.0, 0.0, 0.0], "peg frame orientation in the flange frame", "rad"),
-    Param("hole_from_home", True,
-          "place {H} aligned under the peg at the robot's home (hole_xyz/rpy ignored)"),
-    Param("hole_xyz", [0.0, 0.0, 0.0], "origin of {H} in the base frame", "m"),
-    Param("hole_rpy", [0.0, 0.0, 0.0], "orientation of {H} in the base frame", "rad"),
-)  # fmt: skip
-
-
-def cell_from(values: dict[str, Any]) -> tuple[Any, Any]:
-    """The robot model and ``T_base_H`` from the CELL parameters."""
-    from fbcc_ros.core.kinematics import RobotModel, Tool, aligned_hole_at, pose
-
-    tool = Tool(tuple(values["tool_xyz"]), tuple(values["tool_rpy"]))  # type: ignore[arg-type]
-    robot = RobotModel.from_name(values["robot"], tool)
-    if values["hole_from_home"]:
-        return robot, aligned_hole_at(robot.peg_in_base(robot.home))
-    return robot, pose(values["hole_xyz"], values["hole_rpy"])
 
 
 def run(node_factory: Callable[[], Node]) -> None:
@@ -170,21 +132,3 @@ def freeze_heap() -> None:
 
     gc.collect()
     gc.freeze()
-
-
-def find_scenario(value: str) -> Path:
-    path = Path(value)
-    if path.is_file():
-        return path
-    try:
-        from ament_index_python.packages import get_package_share_directory
-
-        shared = Path(get_package_share_directory("fbcc_ros")) / value
-        if shared.is_file():
-            return shared
-    except (ImportError, LookupError, KeyError, ValueError, OSError):
-        pass
-    package = Path(__file__).resolve().parents[2] / value  # a source checkout
-    if package.is_file():
-        return package
-    raise ConfigError("scenario", value, "the path of a scenario YAML (DESIGN §4)")

@@ -17,7 +17,7 @@ from fbcc_ros.nodes import (
     kinematics,
     mock_cell,
 )
-from fbcc_ros.nodes.params import Param
+from fbcc_ros.pipeline.parameters import Param
 
 MODULES = (mock_cell, dynamic_compensation, kinematics, fbcc_controller, fbcc_record)
 

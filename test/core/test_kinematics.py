@@ -13,6 +13,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.features import pose_from_features
 from fbcc_ros.core.kinematics import (
     ROBOTS,
     CellKinematics,
@@ -322,6 +323,23 @@ def test_tcp_solution_keeps_the_pegs_spin(iiwa: RobotModel) -> None:
     command = cell.tcp_solution([1e-4, 0, 0.003, 0.01, 0.0], q)
     spun = iiwa.peg_in_base(q).rotation[:, 0]
     assert command.peg_in_base.rotation[:, 0] @ spun > math.cos(0.02)
+
+
+def test_a_commanded_pose_is_solved_as_its_features_whatever_its_spin(iiwa: RobotModel) -> None:
+    """``pose_solution`` (the kinematics stage's: a pose in {H}) and ``tcp_solution`` (features)
+    command the same joints, the peg keeping its current spin either way; no radius needed."""
+    cell = _cell_over_the_hole(iiwa)
+    posed = CellKinematics(iiwa, cell.hole_in_base, None)
+    q = iiwa.home.copy()
+    q[6] += 0.4
+    rng = np.random.default_rng(11)
+    for spin in rng.uniform(-3.0, 3.0, 5):
+        x_c = np.array([*rng.uniform(-2e-4, 2e-4, 2), 0.003, *rng.uniform(-0.03, 0.03, 2)])
+        pose_in_hole = pin.SE3(*pose_from_features(x_c, PEG_RADIUS, spin))
+        by_pose = posed.pose_solution(pose_in_hole, q)
+        np.testing.assert_allclose(by_pose.q, cell.tcp_solution(x_c, q).q, atol=1e-12)
+    with pytest.raises(ConfigError, match="peg_radius"):
+        posed.features(q)
 
 
 def test_tool_placement_moves_the_peg_frame() -> None:

@@ -71,7 +71,7 @@ _DELETE = object()
         (("rate_hz",), 1.0, "rate_hz", "Hz"),
         (("seed",), 1.5, "seed", "integer"),
         (("duration",), 0.005, "duration", "control periods"),
-        (("durration",), 3.0, "scenario.durration", "one of"),
+        (("durration",), 3.0, "scenario.durration", "did you mean 'duration'?"),
     ],
 )
 def test_bad_scenarios_name_key_value_and_expectation(

@@ -231,3 +231,19 @@ def test_unconverged_holder_steps_are_counted_not_lost() -> None:
     compliant, _ = simulate(soft, "fbcc", record=False)
     assert rigid.summary(0)["holder_unconverged"] == 0
     assert 0 < compliant.summary(0)["holder_unconverged"] < sc.steps
+
+
+def test_the_simulator_clips_each_command_as_the_supervisor_does() -> None:
+    """The ROS cell's supervisor moves each command at most ``max_step`` / ``max_step_angle``
+    from the last; the simulator applies the same clip (here tightened until it acts)."""
+    from fbcc_ros.core.supervisor import SafetyLimits
+
+    sc = validate({**paper_scenario("clearance"), "duration": 1.0})
+    tight = SafetyLimits(max_step=2e-6, max_step_angle=1e-5)
+    _, clipped = simulate(sc, "fbcc", limits=tight)
+    _, free = simulate(sc, "fbcc")
+    assert clipped is not None and free is not None
+    steps = np.abs(np.diff(clipped.command[:, 0], axis=0)).max(axis=0)
+    assert (steps[:3] <= 2e-6 * (1 + 1e-9)).all() and (steps[3:] <= 1e-5 * (1 + 1e-9)).all()
+    free_steps = np.abs(np.diff(free.command[:, 0], axis=0)).max(axis=0)
+    assert free_steps[2] > 4e-6  # the depth ramp alone: 5 µm a period, so the clip did act

@@ -20,8 +20,8 @@ from fbcc_ros.core.contact import FEATURE_NAMES
 from fbcc_ros.core.simulation import simulate
 from fbcc_ros.nodes.bringup import cell_nodes, run_cell, start_insertion
 from fbcc_ros.nodes.bringup import main as bringup_main
-from fbcc_ros.nodes.cdr import decode_string
 from fbcc_ros.nodes.harness import CellRun
+from fbcc_ros.ros.cdr import decode_string
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "config" / "scenarios" / "bringup_interference.yaml"

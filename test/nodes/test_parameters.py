@@ -19,7 +19,6 @@ import rclpy
 import yaml
 from rclpy.parameter import Parameter
 
-from fbcc_ros.bag.offline import flatten_parameters
 from fbcc_ros.nodes.dynamic_compensation import TABLE as COMPENSATION
 from fbcc_ros.nodes.dynamic_compensation import DynamicCompensationNode
 from fbcc_ros.nodes.fbcc_controller import TABLE as CONTROLLER
@@ -28,7 +27,7 @@ from fbcc_ros.nodes.kinematics import TABLE as KINEMATICS
 from fbcc_ros.nodes.kinematics import KinematicsNode
 from fbcc_ros.nodes.mock_cell import TABLE as MOCK
 from fbcc_ros.nodes.mock_cell import MockCellNode
-from fbcc_ros.nodes.params import Param
+from fbcc_ros.pipeline.parameters import Param, flatten
 
 ROOT = Path(__file__).resolve().parents[2]
 NODES = {
@@ -57,7 +56,7 @@ TOGETHER: dict[str, dict[str, Any]] = {
 
 def _yaml(node: str) -> dict[str, Any]:
     text = (ROOT / "config" / f"{node}.yaml").read_text()
-    return flatten_parameters(yaml.safe_load(text)[node]["ros__parameters"])
+    return flatten(yaml.safe_load(text)[node]["ros__parameters"])
 
 
 def _changed(p: Param, value: Any) -> Any:
@@ -152,6 +151,31 @@ def test_every_parameter_reaches_the_core(node: str, param: Param) -> None:
     base = {**_yaml(node), **TOGETHER.get(param.name, {})}
     changed = {**base, param.name: _changed(param, base[param.name])}
     assert _built(cls, base) != _built(cls, changed), f"{param.name} changed nothing"
+
+
+def _misspelt(name: str) -> str:
+    """``name`` with two of its letters swapped (a typing slip), still not a declared name."""
+    pairs = [i for i in range(len(name) - 1) if name[i] != name[i + 1]]
+    i = max(i for i in pairs if "." not in name[i : i + 2])
+    return name[:i] + name[i + 1] + name[i] + name[i + 2 :]
+
+
+@pytest.mark.parametrize("node", NODES)
+def test_a_misspelt_key_is_refused_at_start_up_with_the_closest_name(node: str) -> None:
+    """Each node and the offline replay's resolution of its table: a key the node does not
+    declare would otherwise leave the default in force without a word."""
+    from fbcc_ros.core.errors import ConfigError
+    from fbcc_ros.pipeline.parameters import resolve
+
+    cls, table = NODES[node]
+    for p in table:
+        wrong = _misspelt(p.name)
+        assert wrong not in {q.name for q in table}
+        given = {wrong: p.default}
+        for build, args in ((_built, (cls, given)), (resolve, (node, table, given))):
+            with pytest.raises(ConfigError) as err:
+                build(*args)
+            assert err.value.value == wrong and f"did you mean {p.name!r}?" in str(err.value)
 
 
 def test_the_parameter_reference_is_generated_from_the_tables() -> None:

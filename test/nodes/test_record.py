@@ -15,9 +15,9 @@ from rclpy.parameter import Parameter
 from rosbags.highlevel import AnyReader
 
 from fbcc_ros.bag.reader import read_bag
-from fbcc_ros.nodes import cdr
 from fbcc_ros.nodes.fbcc_record import FbccRecordNode
 from fbcc_ros.nodes.mock_cell import MockCellNode
+from fbcc_ros.ros import cdr
 
 ROOT = Path(__file__).resolve().parents[2]
 TOPICS = ["joint_states", "ft_sensor/raw"]

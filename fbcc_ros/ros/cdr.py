@@ -16,7 +16,7 @@ The format is plain little-endian CDR (XCDR1), as rmw_fastrtps writes it:
 
 A sequence with no elements is not aligned. Padding bytes are zero here, while rclpy leaves
 them unset, so tests compare values, not bytes. Each function takes or returns plain Python
-values; numpy and pinocchio stay in :mod:`fbcc_ros.nodes.convert`. The tests check every
+values; numpy and pinocchio stay in :mod:`fbcc_ros.ros.convert`. The tests check every
 function both ways against ``rclpy.serialization``.
 """
 

@@ -13,7 +13,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 
 from fbcc_ros.core.errors import InputError
-from fbcc_ros.nodes import cdr
+from fbcc_ros.ros import cdr
 
 # lengths 0..9 cover every padding a string or a sequence can need before a double
 text = st.text(st.characters(codec="utf-8", exclude_characters="\x00"), max_size=9)
@@ -143,7 +143,7 @@ def test_garbled_bytes_are_an_input_error_naming_the_type(decode, kind):
 def test_joint_states_are_put_in_the_robots_order_and_checked():
     """convert.joints_from_cdr: any order of names on the wire, the robot's order out; a
     missing joint or a short position list is an InputError naming the field."""
-    from fbcc_ros.nodes.convert import efforts_from_cdr, joints_from_cdr
+    from fbcc_ros.ros.convert import efforts_from_cdr, joints_from_cdr
 
     robot = ("a1", "a2", "a3")
     same = cdr.encode_joints((2, 500_000_000), "", list(robot), [1.0, 2.0, 3.0], [4.0, 5.0, 6.0])
@@ -169,7 +169,7 @@ def test_joint_states_are_put_in_the_robots_order_and_checked():
     ],
 )
 def test_a_pose_that_is_no_pose_is_rejected(values):
-    from fbcc_ros.nodes.convert import pose_from_cdr
+    from fbcc_ros.ros.convert import pose_from_cdr
 
     with pytest.raises(InputError, match="a finite position and a non-zero quaternion"):
         pose_from_cdr(cdr.encode_pose((1, 0), "hole", values))
@@ -179,7 +179,7 @@ def test_a_pose_round_trips_with_its_quaternion_normalised():
     import numpy as np
     import pinocchio as pin
 
-    from fbcc_ros.nodes.convert import pose_from_cdr, pose_to_cdr
+    from fbcc_ros.ros.convert import pose_from_cdr, pose_to_cdr
 
     rotation = pin.rpy.rpyToMatrix(0.1, -0.2, 0.3)
     pose = pin.SE3(rotation, np.array([1e-3, -2e-3, 0.5]))

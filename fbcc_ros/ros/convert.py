@@ -1,6 +1,6 @@
 """Serialised messages <-> numpy and pinocchio, one function pair per message type.
 
-The bytes are the messages' CDR (:mod:`fbcc_ros.nodes.cdr`): the loop's nodes subscribe raw and
+The bytes are the messages' CDR (:mod:`fbcc_ros.ros.cdr`): the loop's nodes subscribe raw and
 publish bytes, which spares rclpy's message objects at 1 kHz. The checks on what arrives (a
 finite pose, a non-zero quaternion, every joint named) are made here.
 """
@@ -16,7 +16,7 @@ import pinocchio as pin
 from numpy.typing import NDArray
 
 from fbcc_ros.core.errors import InputError
-from fbcc_ros.nodes import cdr
+from fbcc_ros.ros import cdr
 
 FloatArray = NDArray[np.float64]
 

@@ -1,0 +1,131 @@
+"""The compensation stage (Fig. 7): a raw sensor reading, or the arm's external joint torques,
+→ the wrench the peg exerts on the hole, in {H}, moments about the acting point.
+
+The pipeline, the sign conventions and the calibration file are in ``docs/compensation.md``;
+the core is :class:`~fbcc_ros.core.compensation.Compensator`. This stage builds it from its
+parameters and says when the tare is done (the first output after it), so the node can publish
+the bias it measured and the offline replay can redo or skip the tare.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import ArrayLike
+
+from fbcc_ros.core.compensation import Compensated, Compensator, SensorSetup
+from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.kinematics import pose
+from fbcc_ros.core.payload import Payload
+from fbcc_ros.pipeline.kinematics import CELL, cell_from
+from fbcc_ros.pipeline.parameters import Param
+
+TABLE = (
+    Param("placement", "under_hole", "where the sensor is", choices=("under_hole", "wrist")),
+    Param("sensor_frame", "ft_sensor", "frame_id the raw readings must carry"),
+    Param("sensor_xyz", [0.0, 0.0, -0.015], "sensor frame origin: in {H} (under_hole) or in the "
+          "flange frame (wrist)", "m"),
+    Param("sensor_rpy", [0.0, 0.0, 0.0], "sensor frame orientation, same parent", "rad"),
+    Param("acting_point", [0.0, 0.0, -0.015], "where the output's moments are taken, in {H}: "
+          "L + H below the top face for the boundary mapping", "m"),
+    Param("payload.mass", 0.0, "mass carried by the sensor", "kg", 0.0, 1000.0),
+    Param("payload.com", [0.0, 0.0, 0.0], "its centre of mass in the sensor frame", "m"),
+    Param("payload.inertia", [0.0] * 9, "its inertia about the centre of mass, row-major",
+          "kg m^2"),
+    Param("bias", [0.0] * 6, "sensor bias (fx, fy, fz, tx, ty, tz)", "N, N m"),
+    Param("tare_samples", 0, "average this many readings into the bias at start-up (0: off); "
+          "no contact meanwhile", "", 0, 1_000_000),
+    Param("lowpass_hz", 0.0, "output low-pass cut-off (0: off)", "Hz", 0.0, 10000.0,
+          read_only=False),
+    Param("deadband", [0.0, 0.0], "output dead band [force, moment]", "N, N m",
+          read_only=False),
+    Param("virtual_sensor", False, "wrench from external joint torques instead of a sensor"),
+    Param("virtual_damping", 0.01, "damping of the virtual sensor's pseudo-inverse", "", 0.0,
+          10.0),
+    Param("acceleration_lowpass_hz", 10.0, "low-pass of the differentiated joint "
+          "accelerations (wrist payload inertia)", "Hz", 0.0, 10000.0),
+    *CELL,
+)  # fmt: skip
+
+
+def setup_from(values: dict[str, Any], hole: pin.SE3) -> SensorSetup:
+    """The sensor set-up of :data:`TABLE`'s values, the hole at ``hole`` (``T_base_H``)."""
+    inertia = np.asarray(values["payload.inertia"], dtype=float)
+    return SensorSetup(
+        placement=values["placement"],
+        frame=values["sensor_frame"],
+        pose=pose(values["sensor_xyz"], values["sensor_rpy"]),
+        hole_in_base=hole,
+        acting_point=tuple(values["acting_point"]),  # type: ignore[arg-type]
+        payload=Payload(
+            values["payload.mass"],
+            tuple(values["payload.com"]),  # type: ignore[arg-type]
+            tuple(map(tuple, inertia.reshape(3, 3).tolist())) if inertia.size == 9 else inertia,  # type: ignore[arg-type]
+        ),
+        bias=tuple(values["bias"]),
+        lowpass_hz=values["lowpass_hz"],
+        deadband=tuple(values["deadband"]),  # type: ignore[arg-type]
+        acceleration_lowpass_hz=values["acceleration_lowpass_hz"],
+        virtual_damping=values["virtual_damping"],
+        tare_samples=values["tare_samples"],
+    )
+
+
+class CompensationStage:
+    """The compensator of :data:`TABLE`'s values.
+
+    Attributes:
+        comp: The core compensator (its ``counts`` say what it accepted and rejected).
+        robot: The arm (wrist placement) or None (under the hole).
+        just_tared: True after the call that gave the first output of a tare: the bias is
+            measured from then on.
+    """
+
+    def __init__(self, values: dict[str, Any]) -> None:
+        robot, hole = cell_from(values)
+        self.setup = setup_from(values, hole)
+        self.virtual = bool(values["virtual_sensor"])
+        if self.virtual and self.setup.placement != "wrist":
+            raise ConfigError("virtual_sensor", True, "placement 'wrist' with it (the joint "
+                              "torques give the wrench at the wrist)")  # fmt: skip
+        self.robot = robot if self.setup.placement == "wrist" else None
+        self.comp = Compensator(self.setup, self.robot)
+        self._untared = self.setup.tare_samples > 0
+        self.just_tared = False
+
+    def apply(self, values: dict[str, Any]) -> None:
+        """The runtime parameters (``lowpass_hz``, ``deadband``)."""
+        self.comp.set_filters(values["lowpass_hz"], values["deadband"])
+
+    def retare(self, samples: int, bias: Sequence[float] | None = None) -> None:
+        """A fresh compensator that tares on ``samples`` readings (at most the configured
+        ``tare_samples``), or that uses ``bias`` as it is, with no tare."""
+        tare = 0 if bias is not None else min(samples, self.setup.tare_samples)
+        setup = dataclasses.replace(self.setup, tare_samples=tare)
+        if bias is not None:
+            setup = dataclasses.replace(setup, bias=tuple(bias))
+        self.comp = Compensator(setup, self.robot)
+        self._untared = tare > 0
+
+    def joints(self, stamp: float, q: ArrayLike, dq: ArrayLike | None = None) -> None:
+        """The arm's joint state (wrist placement: where the sensor and payload are)."""
+        self.comp.joints(stamp, q, dq)
+
+    def reading(self, stamp: float, frame: str, wrench: ArrayLike) -> Compensated | None:
+        """One raw reading (sensor frame) → the compensated wrench; None while taring and for a
+        rejected sample (counted in ``comp.counts``)."""
+        return self._output(self.comp.reading(stamp, frame, wrench))
+
+    def torques(self, stamp: float, external_torques: ArrayLike) -> Compensated | None:
+        """The virtual sensor: external joint torques → the compensated wrench."""
+        return self._output(self.comp.joint_torques(stamp, external_torques))
+
+    def _output(self, out: Compensated | None) -> Compensated | None:
+        self.just_tared = out is not None and self._untared
+        if self.just_tared:
+            self._untared = False
+        return out

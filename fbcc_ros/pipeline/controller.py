@@ -1,0 +1,125 @@
+"""The controller stage (Algorithm 1): the compensated wrench and the peg's pose → the command,
+as the peg's pose in {H}, with the supervisor's phases and safety.
+
+The law (``fbcc``, the ``admittance`` baseline or ``none``), its gains and the insertion come
+from a scenario file (DESIGN §4: ``geometry`` is the nominal pair, ``controller.params`` the
+gains, ``insertion`` the depth and speed). The features are the peg's pose read with the
+nominal radius; each compensated wrench is one control period of the supervisor
+(:mod:`fbcc_ros.core.supervisor`: a fault holds the last command and says why).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import ArrayLike, NDArray
+
+from fbcc_ros.core import scenario as scenario_io
+from fbcc_ros.core.control import make_law
+from fbcc_ros.core.features import features_from_pose, pose_from_features
+from fbcc_ros.core.robust import RobustFbcc
+from fbcc_ros.core.segmentation import response_state
+from fbcc_ros.core.supervisor import SafetyLimits, Supervisor
+from fbcc_ros.core.wrench import response_from_wrench
+from fbcc_ros.pipeline.parameters import Param
+
+FloatArray = NDArray[np.float64]
+
+_LIMITS = SafetyLimits()
+TABLE = (
+    Param("scenario", "config/scenarios/bringup_interference.yaml", "scenario YAML with the "
+          "nominal geometry, the gains (controller.params) and the insertion; relative paths "
+          "are tried from the working directory, then from the package's share directory"),
+    Param("law", "fbcc", "control law", choices=("fbcc", "admittance", "none")),
+    Param("rate_hz", 1000.0, "control rate (one period per compensated wrench)", "Hz", 1.0,
+          10000.0),
+    Param("timeout", _LIMITS.timeout, "stale input fault after this gap", "s", 1e-3, 10.0,
+          read_only=False),
+    Param("max_step", _LIMITS.max_step, "largest change of dx, dy, l per command", "m", 1e-9,
+          0.01, read_only=False),
+    Param("max_step_angle", _LIMITS.max_step_angle, "largest change of a tilt per command",
+          "rad", 1e-9, 0.1, read_only=False),
+    Param("auto_start", False, "start an insertion once features and wrenches arrive"),
+    Param("estimate_rate_hz", 100.0, "rate of fbcc/contact_estimate (robust law; at most the "
+          "control rate)", "Hz", 1.0, 10000.0),
+)  # fmt: skip
+
+
+def safety_limits(values: dict[str, Any]) -> SafetyLimits:
+    """The supervisor's limits from :data:`TABLE`'s values."""
+    return SafetyLimits(values["timeout"], values["max_step"], values["max_step_angle"])
+
+
+class ControllerStage:
+    """The supervised law of :data:`TABLE`'s values.
+
+    Attributes:
+        sup: The supervisor (phase, reason, the law).
+        nominal: The controller's nominal pair (its radius reads the features).
+        auto_start: Start once features and wrenches arrive.
+    """
+
+    def __init__(self, values: dict[str, Any]) -> None:
+        sc = scenario_io.load(scenario_io.find(values["scenario"]))
+        self.nominal = sc.geometry
+        law = make_law(values["law"], sc.geometry, sc.params, sc.insertion)
+        self.sup = Supervisor(law, 1.0 / values["rate_hz"], safety_limits(values))
+        self.auto_start = bool(values["auto_start"])
+        self.robust = isinstance(law, RobustFbcc)
+        #: one contact estimate every this many periods
+        self.estimate_every = max(1, round(values["rate_hz"] / values["estimate_rate_hz"]))
+        self._periods = 0
+        self.response: FloatArray | None = None  # the last period's
+
+    def apply(self, values: dict[str, Any]) -> None:
+        """The runtime parameters (the safety limits); raises ConfigError for bad ones."""
+        self.sup.limits = safety_limits(values)
+
+    @property
+    def said(self) -> str:
+        """The phase and, if any, why."""
+        return f"{self.sup.phase}: {self.sup.reason}" if self.sup.reason else self.sup.phase
+
+    @property
+    def ready_to_start(self) -> bool:
+        """With ``auto_start``: idle, and features have come."""
+        return self.auto_start and self.sup.phase == "idle" and self.sup.features is not None
+
+    def features(self, now: float, peg_in_hole: pin.SE3 | None) -> None:
+        """The peg's measured pose in {H} (None: unreadable, a fault while inserting).
+        Raises :class:`~fbcc_ros.core.errors.InputError` for a peg tilted 90° or more."""
+        if peg_in_hole is None:
+            self.sup.on_features(now, [float("nan")] * 5)
+            return
+        radius = self.nominal.peg_radius
+        self.sup.on_features(now, features_from_pose(peg_in_hole.rotation,
+                                                     peg_in_hole.translation, radius))  # fmt: skip
+
+    def wrench(self, now: float, stamp: float, wrench: ArrayLike) -> pin.SE3 | None:
+        """One control period on the compensated wrench sampled at ``stamp``: the command as
+        the peg's pose in {H} (the held one outside an insertion; None before the first)."""
+        self.response = response_from_wrench(wrench)
+        command = self.sup.on_response(now, self.response, stamp)
+        self._periods += 1
+        if command is None:
+            return None
+        return pin.SE3(*pose_from_features(command, self.nominal.peg_radius))
+
+    def estimate(self, stamp: float) -> list[float] | None:
+        """The robust law's contact estimate (``identification.ESTIMATE_FIELDS``, the stamp
+        first) every ``estimate_every`` periods while inserting; else None."""
+        law = self.sup.law
+        if not (self.robust and self.sup.active and self._periods % self.estimate_every == 0):
+            return None
+        assert isinstance(law, RobustFbcc)
+        return [stamp, *law.estimate(0).as_row(law.guard_trips(0))]
+
+    def contact_state(self) -> str | None:
+        """The boundary mapping's state per plane of the last response, ``xoz/yoz``, while
+        inserting (~50 µs: ask only for a listener)."""
+        if self.response is None or self.sup.features is None or not self.sup.active:
+            return None
+        xoz, yoz = response_state(self.response, self.sup.features[2], self.nominal)
+        return f"{xoz}/{yoz}"

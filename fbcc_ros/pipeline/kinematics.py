@@ -1,0 +1,86 @@
+"""The kinematics stage: joint states → the peg's pose in {H} (the feature solution); a
+commanded peg pose in {H} → joint positions (the TCP solution, Fig. 7).
+
+The pose, not the features, crosses the stage's boundary: the features need the peg's radius,
+which is the controller's nominal one (:mod:`fbcc_ros.pipeline.controller`), so this stage has
+no radius of its own. The commanded pose is reached with the peg's current spin about its axis.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import ArrayLike, NDArray
+
+from fbcc_ros.core.kinematics import CellKinematics, RobotModel, TcpCommand, Tool, aligned_hole_at
+from fbcc_ros.core.kinematics import pose as pose_of
+from fbcc_ros.pipeline.parameters import Param
+
+FloatArray = NDArray[np.float64]
+
+#: The arm, its tool and where the hole is: shared by the stages that need kinematics.
+CELL = (
+    Param("robot", "iiwa14", "robot model", choices=("iiwa14", "panda", "ur5")),
+    Param("tool_xyz", [0.0, 0.0, 0.10], "peg tip centre in the flange frame", "m"),
+    Param("tool_rpy", [0.0, 0.0, 0.0], "peg frame orientation in the flange frame", "rad"),
+    Param("hole_from_home", True,
+          "place {H} aligned under the peg at the robot's home (hole_xyz/rpy ignored)"),
+    Param("hole_xyz", [0.0, 0.0, 0.0], "origin of {H} in the base frame", "m"),
+    Param("hole_rpy", [0.0, 0.0, 0.0], "orientation of {H} in the base frame", "rad"),
+)  # fmt: skip
+
+TABLE = (
+    *CELL,
+    Param("rate_hz", 1000.0, "control rate: the IK keeps each step within one period's joint "
+          "velocity limits", "Hz", 1.0, 10000.0),
+)  # fmt: skip
+
+
+def cell_from(values: dict[str, Any]) -> tuple[RobotModel, pin.SE3]:
+    """The robot model and ``T_base_H`` from the CELL parameters."""
+    tool = Tool(tuple(values["tool_xyz"]), tuple(values["tool_rpy"]))  # type: ignore[arg-type]
+    robot = RobotModel.from_name(values["robot"], tool)
+    if values["hole_from_home"]:
+        return robot, aligned_hole_at(robot.peg_in_base(robot.home))
+    return robot, pose_of(values["hole_xyz"], values["hole_rpy"])
+
+
+class KinematicsStage:
+    """The feature and TCP solutions of one cell, configured by :data:`TABLE`'s values.
+
+    Attributes:
+        cell: The robot, the hole and the IK.
+        dt: The control period [s]: a command must be reachable within it.
+        q: The last measured joints (None before the first).
+        q_command: The last commanded joints (None before the first).
+    """
+
+    def __init__(self, values: dict[str, Any]) -> None:
+        robot, hole = cell_from(values)
+        self.cell = CellKinematics(robot, hole, None)
+        self.dt = 1.0 / values["rate_hz"]
+        self.q: FloatArray | None = None
+        self.q_command: FloatArray | None = None
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return self.cell.robot.joint_names
+
+    def joints(self, q: ArrayLike) -> pin.SE3:
+        """The peg's pose in {H}, ``T_H_P``, at the measured joints ``q``."""
+        peg = self.cell.peg_in_hole(q)
+        self.q = np.asarray(q, dtype=float)
+        return peg
+
+    def command(self, peg_in_hole: pin.SE3) -> TcpCommand | None:
+        """The joints that place the peg at ``peg_in_hole`` within one period, from the last
+        command (the measured joints before the first); None before any joints were measured.
+        Raises :class:`~fbcc_ros.core.kinematics.IkError` for a pose it cannot reach."""
+        if self.q is None:
+            return None
+        start = self.q if self.q_command is None else self.q_command
+        solution = self.cell.pose_solution(peg_in_hole, start, self.dt)
+        self.q_command = solution.q
+        return solution

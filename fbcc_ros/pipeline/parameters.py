@@ -1,0 +1,73 @@
+"""The parameters of a stage, declared once, without ROS.
+
+Each stage of the pipeline declares its parameters in one table of :class:`Param` (name as in
+the YAML, dots for nesting; default; unit; meaning; range or choices; whether it may change at
+runtime). The ROS nodes declare the same table with rclpy's descriptors
+(:mod:`fbcc_ros.nodes.params`); the offline replay resolves it here with :func:`resolve`, which
+checks what rclpy checks on declare, and refuses a name the stage does not have.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from typing import Any
+
+from fbcc_ros.core.errors import ConfigError, closest
+
+
+@dataclasses.dataclass(frozen=True)
+class Param:
+    """One parameter: ``name`` as in the YAML (dots for nesting), its default, unit and meaning.
+
+    ``low``/``high`` bound a number; ``choices`` a string; ``read_only`` is False for the
+    parameters a stage applies while it runs.
+    """
+
+    name: str
+    default: Any
+    description: str
+    unit: str = ""
+    low: float | None = None
+    high: float | None = None
+    read_only: bool = True
+    choices: tuple[str, ...] = ()
+
+    def check(self, value: Any, where: str = "") -> None:
+        """Raises :class:`ConfigError` for a value outside the choices or the range."""
+        name = f"{where}.{self.name}" if where else self.name
+        if self.choices and value not in self.choices:
+            raise ConfigError(name, value, f"one of {list(self.choices)}")
+        if self.low is not None and self.high is not None and not self.low <= value <= self.high:
+            raise ConfigError(name, value, f"within [{self.low}, {self.high}] {self.unit}".strip())
+
+
+def unknown_names(stage: str, table: Sequence[Param], names: Sequence[str]) -> None:
+    """Raises :class:`ConfigError` for the first of ``names`` the table does not declare, with
+    the closest declared name (a misspelt key would otherwise leave its default in force)."""
+    declared = [p.name for p in table]
+    for name in names:
+        if name not in declared:
+            allowed = f"{closest(name, declared)}a name {stage} declares: {declared}"
+            raise ConfigError(f"{stage} parameter", name, allowed)
+
+
+def resolve(stage: str, table: Sequence[Param], given: dict[str, Any]) -> dict[str, Any]:
+    """The table's defaults overridden by ``given``, checked as the node checks them on
+    declare: a name the stage does not have, a number out of range, a string not a choice."""
+    unknown_names(stage, table, sorted(given))
+    values = {p.name: given.get(p.name, p.default) for p in table}
+    for p in table:
+        p.check(values[p.name], stage)
+    return values
+
+
+def flatten(params: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """``{payload: {mass: 1}}`` → ``{"payload.mass": 1}``, as ROS names nested parameters."""
+    out: dict[str, Any] = {}
+    for name, value in params.items():
+        if isinstance(value, dict):
+            out.update(flatten(value, f"{prefix}{name}."))
+        else:
+            out[f"{prefix}{name}"] = value
+    return out
