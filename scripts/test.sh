@@ -5,7 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/bootstrap.sh
 echo "== ruff"; .venv/bin/ruff check fbcc_ros test
-echo "== mypy (core)"; .venv/bin/mypy
+echo "== mypy (the whole package)"; .venv/bin/mypy
 echo "== benchmark (short mode: proves it runs; figures are only meaningful in full mode)"
 .venv/bin/python -m fbcc_ros.cli.bench --short
 echo "== pytest"; .venv/bin/python -m pytest "$@"

@@ -166,13 +166,15 @@ def test_readme_python_examples_run(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 #: What each layer may import of the package (any other fbcc_ros import is an arrow against
-#: the layers): the core and the codec are ROS-free; the stages build on the core; the bag and
-#: the command-line tools on the stages and the codec; the nodes on everything below them.
+#: the layers): the core is ROS-free, the stages build on it, the ROS plumbing on the stages'
+#: parameter tables, the bag on the stages and the codec, the nodes on all of these; the
+#: harness (a cell run) and the command-line tools sit on top.
 LAYERS = {
     "core": {"core"},
-    "ros": {"core", "ros"},
     "pipeline": {"core", "pipeline"},
-    "bag": {"core", "ros", "pipeline", "bag"},
+    "ros": {"core", "pipeline", "ros"},
+    "bag": {"core", "pipeline", "ros", "bag"},
+    "nodes": {"core", "pipeline", "ros", "bag", "harness", "nodes"},
 }
 
 

@@ -189,12 +189,12 @@ def bench_compensation(samples: int) -> dict[str, float]:
 
 
 def bench_loop(seconds: float, processes: bool, repeats: int) -> None:
-    """The ROS closed loop against the bare chain (fbcc_ros.nodes.loop_bench), over DDS.
+    """The ROS closed loop against the bare chain (fbcc_ros.harness.loop_bench), over DDS.
 
     A p99 over a few seconds swings with one VM stall (a chain's p99 varied up to tenfold
     between runs here), so the chains run ``repeats`` times, interleaved, and the run with the
     median p99 of each is printed beside all the p99s."""
-    from fbcc_ros.nodes.loop_bench import measure
+    from fbcc_ros.harness.loop_bench import measure
 
     runs3 = [(measure("bare", seconds), measure("fbcc", seconds),
               measure("fbcc", seconds, robust=True)) for _ in range(repeats)]  # fmt: skip

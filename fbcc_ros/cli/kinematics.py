@@ -96,7 +96,9 @@ def _summary(
     }
 
 
-def _plot(robot: RobotModel, result: FollowResult, commands: np.ndarray, dt: float, path: Path):
+def _plot(
+    robot: RobotModel, result: FollowResult, commands: np.ndarray, dt: float, path: Path
+) -> None:
     import matplotlib
 
     matplotlib.use("Agg")

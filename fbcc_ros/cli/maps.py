@@ -14,6 +14,7 @@ import argparse
 import csv
 import math
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -165,7 +166,9 @@ def draw_feature_states(out: Path) -> Path:
             ax.set_title(f"{fit}, l = {depth * 1e3:.0f} mm")
             ax.set_xlabel("dx [µm]")
             ax.set_ylabel("θy [deg]")
-    handles = [plt.Rectangle((0, 0), 1, 1, fc=COLOURS[s], ec="k", lw=0.3) for s in states]
+    handles: list[Any] = [
+        plt.Rectangle((0, 0), 1, 1, fc=COLOURS[s], ec="k", lw=0.3) for s in states
+    ]
     handles.append(plt.Line2D([], [], color="k", ls="--"))
     fig.legend(
         handles, [*states, "model: Fz = 0 boundary"], loc="lower center", ncol=10, fontsize=8
@@ -201,7 +204,7 @@ def draw_response_states(out: Path, n: int = 600, seed: int = 0) -> Path:
             v = resp[keep, 4] / (ph.hole_radius * resp[keep, 2])
             truth, _ = feature_state(f[keep], ph)
             for s in STATES:
-                m = truth == s
+                m = np.asarray(truth == s)
                 if m.any():
                     ax.scatter(u[m], v[m], s=6, color=COLOURS[s] if s != "P0" else "k", label=s)
             x = np.linspace(-3.5, 3.5, 2)

@@ -32,9 +32,9 @@ from fbcc_ros.core import scenario as scenario_io
 from fbcc_ros.core.compensation import acting_point_of
 from fbcc_ros.core.errors import FbccError, InputError
 from fbcc_ros.core.simulation import score
-from fbcc_ros.nodes import topics
+from fbcc_ros.harness.cell_run import CellRun, NodeSpec
 from fbcc_ros.nodes.fbcc_record import CELL_TOPICS, default_folder
-from fbcc_ros.nodes.harness import CellRun, NodeSpec
+from fbcc_ros.ros import topics
 
 DEFAULT_SCENARIO = "config/scenarios/bringup_interference.yaml"
 #: Readings averaged into the sensor's bias before the insertion starts.

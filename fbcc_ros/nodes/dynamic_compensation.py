@@ -20,11 +20,11 @@ from sensor_msgs.msg import JointState
 
 from fbcc_ros.core.compensation import Compensated
 from fbcc_ros.core.errors import FbccError
-from fbcc_ros.nodes import topics
-from fbcc_ros.nodes.diagnostics import counter_report, publish_diagnostics
-from fbcc_ros.nodes.params import declare, run
 from fbcc_ros.pipeline.compensation import TABLE, CompensationStage
+from fbcc_ros.ros import topics
 from fbcc_ros.ros.convert import efforts_from_cdr, joints_from_cdr, wrench_from_cdr, wrench_to_cdr
+from fbcc_ros.ros.diagnostics import counter_report, publish_diagnostics
+from fbcc_ros.ros.params import declare, run
 
 __all__ = ["TABLE", "DynamicCompensationNode"]
 

@@ -25,12 +25,12 @@ from std_srvs.srv import Trigger
 
 from fbcc_ros.core.errors import FbccError
 from fbcc_ros.core.identification import ESTIMATE_FIELDS
-from fbcc_ros.nodes import topics
-from fbcc_ros.nodes.diagnostics import ERROR, OK, WARN, publish_diagnostics
-from fbcc_ros.nodes.params import declare, run
 from fbcc_ros.pipeline.controller import TABLE, ControllerStage
+from fbcc_ros.ros import topics
 from fbcc_ros.ros.cdr import encode_array
 from fbcc_ros.ros.convert import pose_from_cdr, pose_to_cdr, wrench_from_cdr
+from fbcc_ros.ros.diagnostics import ERROR, OK, WARN, publish_diagnostics
+from fbcc_ros.ros.params import declare, run
 
 __all__ = ["TABLE", "FbccControllerNode"]
 
@@ -58,14 +58,24 @@ class FbccControllerNode(Node):
         self.create_timer(0.01, self.on_watchdog)
         self._phase_said = ""
         self._state_said = ""
+        self._mismatch_said = ""
         self._publish_phase()
         publish_diagnostics(self, self._report)
 
     def _report(self) -> tuple[bytes, str, dict[str, Any]]:
         level = {"fault": ERROR, "force_limit": WARN, "aborted": WARN}.get(self.sup.phase, OK)
+        rate = self.stage.input_rate
         values = {"phase": self.sup.phase, "reason": self.sup.reason,
-                  "contact_state": self._state_said}  # fmt: skip
-        return level, self.stage.said, values
+                  "contact_state": self._state_said, "input_rate_hz": rate.measured_hz,
+                  "late_samples": self.sup.late}  # fmt: skip
+        said, mismatch = self.stage.said, rate.mismatch()
+        if mismatch != self._mismatch_said:
+            self._mismatch_said = mismatch
+            if mismatch:
+                self.get_logger().warn(mismatch)
+        if mismatch and level == OK:
+            level, said = WARN, f"{said}; {mismatch}"
+        return level, said, values
 
     def now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9

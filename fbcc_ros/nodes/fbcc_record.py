@@ -20,10 +20,10 @@ from rclpy.qos import QoSProfile
 
 from fbcc_ros.bag.schema import message_class
 from fbcc_ros.bag.writer import BagWriter
-from fbcc_ros.nodes import topics
-from fbcc_ros.nodes.diagnostics import counter_report, publish_diagnostics
-from fbcc_ros.nodes.params import declare, run
 from fbcc_ros.pipeline.parameters import Param
+from fbcc_ros.ros import topics
+from fbcc_ros.ros.diagnostics import counter_report, publish_diagnostics
+from fbcc_ros.ros.params import declare, run
 
 #: What a session of the cell needs for replay and report (topics.py names, relative).
 CELL_TOPICS = [

@@ -24,11 +24,11 @@ from std_msgs.msg import Float64MultiArray, String
 
 from fbcc_ros.core.errors import FbccError
 from fbcc_ros.core.kinematics import IkError
-from fbcc_ros.nodes import topics
-from fbcc_ros.nodes.diagnostics import counter_report, publish_diagnostics
-from fbcc_ros.nodes.params import declare, run
 from fbcc_ros.pipeline.kinematics import TABLE, KinematicsStage
+from fbcc_ros.ros import topics
 from fbcc_ros.ros.convert import joints_from_cdr, pose_from_cdr, pose_to_cdr, positions_to_cdr
+from fbcc_ros.ros.diagnostics import counter_report, publish_diagnostics
+from fbcc_ros.ros.params import declare, run
 
 __all__ = ["TABLE", "KinematicsNode"]
 

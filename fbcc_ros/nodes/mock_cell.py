@@ -27,13 +27,13 @@ from fbcc_ros.core.cell import MockCell
 from fbcc_ros.core.errors import FbccError
 from fbcc_ros.core.mapping_study import perturbed
 from fbcc_ros.core.payload import Payload
-from fbcc_ros.nodes import topics
-from fbcc_ros.nodes.diagnostics import counter_report, publish_diagnostics
-from fbcc_ros.nodes.params import declare, run
 from fbcc_ros.pipeline.kinematics import CELL, cell_from
 from fbcc_ros.pipeline.parameters import Param
+from fbcc_ros.ros import topics
 from fbcc_ros.ros.cdr import encode_array
 from fbcc_ros.ros.convert import joints_to_cdr, positions_from_cdr, wrench_to_cdr
+from fbcc_ros.ros.diagnostics import counter_report, publish_diagnostics
+from fbcc_ros.ros.params import declare, run
 
 TABLE = (
     Param("scenario", "config/scenarios/bringup_interference.yaml", "scenario YAML: the true "

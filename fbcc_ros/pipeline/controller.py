@@ -24,6 +24,7 @@ from fbcc_ros.core.segmentation import response_state
 from fbcc_ros.core.supervisor import SafetyLimits, Supervisor
 from fbcc_ros.core.wrench import response_from_wrench
 from fbcc_ros.pipeline.parameters import Param
+from fbcc_ros.pipeline.rate import InputRate
 
 FloatArray = NDArray[np.float64]
 
@@ -72,6 +73,7 @@ class ControllerStage:
         self.estimate_every = max(1, round(values["rate_hz"] / values["estimate_rate_hz"]))
         self._periods = 0
         self.response: FloatArray | None = None  # the last period's
+        self.input_rate = InputRate(values["rate_hz"], "the compensated wrench")
 
     def apply(self, values: dict[str, Any]) -> None:
         """The runtime parameters (the safety limits); raises ConfigError for bad ones."""
@@ -100,6 +102,7 @@ class ControllerStage:
     def wrench(self, now: float, stamp: float, wrench: ArrayLike) -> pin.SE3 | None:
         """One control period on the compensated wrench sampled at ``stamp``: the command as
         the peg's pose in {H} (the held one outside an insertion; None before the first)."""
+        self.input_rate.sample(stamp)
         self.response = response_from_wrench(wrench)
         command = self.sup.on_response(now, self.response, stamp)
         self._periods += 1

@@ -3,7 +3,7 @@
 Each stage of the pipeline declares its parameters in one table of :class:`Param` (name as in
 the YAML, dots for nesting; default; unit; meaning; range or choices; whether it may change at
 runtime). The ROS nodes declare the same table with rclpy's descriptors
-(:mod:`fbcc_ros.nodes.params`); the offline replay resolves it here with :func:`resolve`, which
+(:mod:`fbcc_ros.ros.params`); the offline replay resolves it here with :func:`resolve`, which
 checks what rclpy checks on declare, and refuses a name the stage does not have.
 """
 

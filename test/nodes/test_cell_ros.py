@@ -18,9 +18,9 @@ from fbcc_ros.bag.reader import read_bag
 from fbcc_ros.core import scenario
 from fbcc_ros.core.contact import FEATURE_NAMES
 from fbcc_ros.core.simulation import simulate
+from fbcc_ros.harness.cell_run import CellRun
 from fbcc_ros.nodes.bringup import cell_nodes, run_cell, start_insertion
 from fbcc_ros.nodes.bringup import main as bringup_main
-from fbcc_ros.nodes.harness import CellRun
 from fbcc_ros.ros.cdr import decode_string
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -150,12 +150,14 @@ def test_each_node_reports_on_diagnostics() -> None:
     assert int(comp["taring"]) == 200  # the bringup's tare, done before the start
     ctrl = statuses["fbcc_controller"]
     assert ctrl.message in ("inserting", "inserted"), ctrl  # type: ignore[attr-defined]
-    # every node OK; the mock may warn that it skipped ticks: true of a starved machine (its
-    # 1 kHz timer fell behind), and its report is then right to say so
+    # every node OK; on a starved machine two reports are right to warn: the mock that it
+    # skipped ticks (its 1 kHz timer fell behind), the controller that its wrenches come at
+    # less than its rate (it stepped on a third of them in one CI run)
     for name, status in statuses.items():
         level, message = status.level, status.message  # type: ignore[attr-defined]
-        skipped = name == "mock_cell" and level == b"\x01" and "ticks_skipped" in message
-        assert level == b"\x00" or skipped, (name, status)
+        skipped = name == "mock_cell" and "ticks_skipped" in message
+        slow = name == "fbcc_controller" and "configured for 1000 Hz" in message
+        assert level == b"\x00" or (level == b"\x01" and (skipped or slow)), (name, status)
 
 
 @REALTIME
@@ -250,8 +252,8 @@ def test_the_latency_probe_stops_watching_what_it_does_not_need() -> None:
     mock then stops publishing its truth); the commands, the TCP commands and the phase stay."""
     import rclpy
 
-    from fbcc_ros.nodes import topics
-    from fbcc_ros.nodes.observer import Observer
+    from fbcc_ros.harness.observer import Observer
+    from fbcc_ros.ros import topics
 
     context = rclpy.Context()
     rclpy.init(context=context)

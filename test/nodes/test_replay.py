@@ -18,7 +18,7 @@ from std_msgs.msg import String
 
 from fbcc_ros.bag.reader import read_bag
 from fbcc_ros.bag.writer import BagWriter
-from fbcc_ros.nodes import topics
+from fbcc_ros.ros import topics
 from fbcc_ros.ros.cdr import decode_joints
 
 ROOT = Path(__file__).resolve().parents[2]

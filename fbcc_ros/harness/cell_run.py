@@ -1,5 +1,5 @@
 """Runs a set of nodes for a while — in this process on one EventsExecutor, or each as its own
-process — beside an :class:`~fbcc_ros.nodes.observer.Observer`, and accounts the CPU each node
+process — beside an :class:`~fbcc_ros.harness.observer.Observer`, and accounts the CPU each node
 used. The bringup and the loop benchmark are built on it.
 
 CPU per node: in one process, the thread CPU time spent in each node's callbacks (the rest of
@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from fbcc_ros.core.errors import FbccError
-from fbcc_ros.nodes.params import freeze_heap
+from fbcc_ros.ros.params import freeze_heap
 
 
 @dataclass
@@ -58,7 +58,7 @@ class CellRun:
         import rclpy
         from rclpy.experimental import EventsExecutor
 
-        from fbcc_ros.nodes.observer import Observer
+        from fbcc_ros.harness.observer import Observer
 
         self.specs = specs
         self.processes = processes

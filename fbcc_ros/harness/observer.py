@@ -18,7 +18,7 @@ from rclpy.node import Node
 from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import Trigger
 
-from fbcc_ros.nodes import topics
+from fbcc_ros.ros import topics
 from fbcc_ros.ros.cdr import decode_array, decode_pose
 from fbcc_ros.ros.convert import stamp_to_seconds
 
@@ -32,8 +32,11 @@ class Observer(Node):
         self.phase, self.reason = "", ""
         sub = self.create_subscription
         truth = self.truth.append
+        def keep_truth(data: bytes) -> None:  # raw: the CDR bytes
+            truth(decode_array(data))
+
         self._watching = [
-            sub(Float64MultiArray, topics.TRUTH, lambda d: truth(decode_array(d)), 100, raw=True)
+            sub(Float64MultiArray, topics.TRUTH, keep_truth, 100, raw=True)  # type: ignore[arg-type]
         ]
         sub(String, topics.PHASE, self.on_phase, topics.PHASE_QOS)
         # counting needs no decoding: raw (serialised) messages spare ~30 µs each

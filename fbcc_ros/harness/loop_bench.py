@@ -17,7 +17,7 @@ scenario with the stiffness-robust law (identification, guard, axis insertion; `
 
 - cycles delivered: joint commands received / periods of the run (rate × seconds);
 - latency: sensor stamp → TCP command received, p50 and p99 (both on the system clock);
-- CPU per node, as a share of one core (:mod:`fbcc_ros.nodes.harness`).
+- CPU per node, as a share of one core (:mod:`fbcc_ros.harness.cell_run`).
 """
 
 from __future__ import annotations
@@ -35,8 +35,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from fbcc_ros.core import scenario as scenario_io
-from fbcc_ros.nodes import topics
-from fbcc_ros.nodes.harness import CellRun, NodeSpec
+from fbcc_ros.harness.cell_run import CellRun, NodeSpec
+from fbcc_ros.ros import topics
 
 SCENARIO = "config/scenarios/bringup_interference.yaml"
 #: ``controller.params`` of the robust run: the robust law with the cell's stated loop delay.

@@ -1,0 +1,195 @@
+"""Every parameter of every stage changes what the stage puts out.
+
+Generated from the stages' tables: each stage is driven by the committed bag's inputs (the
+cell's raw wrenches and joint states, the features, compensated wrenches and commands the live
+nodes exchanged) with its defaults, and again with one parameter changed; what it puts out
+(outputs, refusals, counters, phases) must differ. A parameter that is read and ignored fails
+here. Some parameters act only in a mode (a wrist sensor's tool, the robust law's estimate
+rate): ``CONTEXT`` sets that mode for both runs; some act only past a bound the recorded
+session stays within (the step clip): ``CHANGED`` picks a value past it.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from fbcc_ros.bag.reader import read_bag
+from fbcc_ros.core.errors import FbccError
+from fbcc_ros.pipeline import compensation, controller, kinematics
+from fbcc_ros.pipeline.parameters import Param, resolve
+from fbcc_ros.ros.convert import joints_from_cdr, pose_from_cdr, wrench_from_cdr
+
+ROOT = Path(__file__).resolve().parents[2]
+BAG = read_bag(ROOT / "test" / "data" / "bags" / "short_interference")
+JOINTS = ("iiwa_joint_1", "iiwa_joint_2", "iiwa_joint_3", "iiwa_joint_4", "iiwa_joint_5",
+          "iiwa_joint_6", "iiwa_joint_7")  # fmt: skip
+ROBUST = str(ROOT / "config" / "scenarios" / "robust_interference.yaml")
+WRIST = {"placement": "wrist", "sensor_xyz": [0.0, 0.0, 0.03], "payload.mass": 0.8,
+         "payload.com": [0.0, 0.01, 0.05],
+         "payload.inertia": [2e-3, 0, 0, 0, 2e-3, 0, 0, 0, 1e-3]}  # fmt: skip
+HOLE = {"hole_xyz": [0.575, 0.0, 0.336], "hole_rpy": [0.0, 0.0, math.pi]}
+#: The mode in which a parameter acts, set for both runs (``node.name`` before ``name``).
+CONTEXT: dict[str, dict[str, Any]] = {
+    "payload.com": {"payload.mass": 0.8},
+    "payload.inertia": WRIST,
+    "virtual_sensor": {**WRIST, "payload.mass": 0.0},
+    "virtual_damping": {**WRIST, "virtual_sensor": True},
+    "acceleration_lowpass_hz": WRIST,
+    **{f"dynamic_compensation.{name}": WRIST for name in ("robot", "tool_xyz", "tool_rpy")},
+    "hole_from_home": HOLE,
+    "hole_xyz": {"hole_from_home": False, "hole_rpy": HOLE["hole_rpy"]},
+    "hole_rpy": {"hole_from_home": False, "hole_xyz": HOLE["hole_xyz"]},
+    "estimate_rate_hz": {"scenario": ROBUST},
+}
+for _name in ("hole_from_home", "hole_xyz", "hole_rpy"):  # the compensation: a wrist sensor's
+    CONTEXT[f"dynamic_compensation.{_name}"] = {**WRIST, **CONTEXT[_name]}
+#: Changed values where the generic change would not reach where the parameter acts.
+CHANGED: dict[str, Any] = {
+    "scenario": ROBUST,
+    "max_step": 1e-6,  # the depth ramp moves 5 µm a period
+    "max_step_angle": 1e-9,  # the tilt commands move less than 1e-6 rad a period here
+    "timeout": 0.01,  # the features stop for 30 ms (_controller)
+    "fbcc_controller.rate_hz": 250.0,
+    "kinematics.rate_hz": 10000.0,  # a 0.5 mm command is then beyond a period's reach
+    "estimate_rate_hz": 500.0,
+    "payload.inertia": [1e-3, 0, 0, 0, 1e-3, 0, 0, 0, 1e-3],
+    "deadband": [0.5, 0.05],
+    "lowpass_hz": 20.0,
+    "tare_samples": 50,
+    "virtual_damping": 1.0,
+    "robot": "panda",
+    "hole_from_home": False,
+}
+
+
+def _of(table: dict[str, Any], node: str, name: str) -> Any:
+    return table.get(f"{node}.{name}", table.get(name))
+
+
+def _changed(node: str, p: Param, value: Any) -> Any:
+    if _of(CHANGED, node, p.name) is not None:
+        return _of(CHANGED, node, p.name)
+    if isinstance(value, bool):
+        return not value
+    if p.choices:
+        return next(c for c in p.choices if c != value)
+    if isinstance(value, float):
+        high = math.inf if p.high is None else p.high
+        return next(c for c in (value * 1.5, value / 1.5, 0.5) if c != value and c <= high)
+    if isinstance(value, list):
+        return [value[0] + 0.01, *value[1:]]
+    if isinstance(value, str):
+        return value + "_other"
+    raise AssertionError(f"no changed value for {p.name}={value!r}")
+
+
+def _attempt(out: list[Any], call: Any, *args: Any) -> Any:
+    """``call(*args)``, or its refusal put into ``out``."""
+    try:
+        return call(*args)
+    except FbccError as exc:
+        out.append(f"refused: {exc}")
+        return None
+
+
+def _compensation(values: dict[str, Any]) -> list[Any]:
+    stage = compensation.CompensationStage(values)
+    out: list[Any] = []
+    for m in BAG.messages:
+        if m.topic == "/joint_states" and stage.robot is not None:
+            stamp, q, dq = joints_from_cdr(m.data, JOINTS)  # for any 7-joint model
+            _attempt(out, stage.joints, stamp, q, dq)
+        elif m.topic == "/ft_sensor/raw":
+            stamp, frame, wrench = wrench_from_cdr(m.data)
+            if stage.virtual:  # the joint torques such a wrench would leave: any 7 numbers do
+                result = _attempt(out, stage.torques, stamp, np.r_[wrench, wrench[0]])
+            else:
+                result = _attempt(out, stage.reading, stamp, frame, wrench)
+            if result is not None:
+                out.append(np.r_[result.stamp, result.wrench])
+    return [*out, stage.comp.counts, stage.comp.bias]
+
+
+def _kinematics(values: dict[str, Any]) -> list[Any]:
+    stage = kinematics.KinematicsStage(values)
+    out: list[Any] = []
+    peg = None
+    for m in BAG.messages:
+        if m.topic == "/joint_states":  # for any 7-joint model
+            peg = _attempt(out, stage.joints, joints_from_cdr(m.data, JOINTS)[1])
+            if peg is not None:
+                out.append(peg.homogeneous)
+        elif m.topic == "/fbcc/command":
+            solution = _attempt(out, stage.command, pose_from_cdr(m.data)[1])
+            if solution is not None:
+                out.append(solution.q)
+    if peg is not None:  # a command 0.5 mm to the side: within a period's reach at 1 kHz only
+        solution = _attempt(out, stage.command, peg * pin.SE3(np.eye(3), np.array([5e-4, 0, 0])))
+        out.append(None if solution is None else solution.q)
+    return out
+
+
+def _controller(values: dict[str, Any]) -> list[Any]:
+    stage = controller.ControllerStage(values)
+    out: list[Any] = []
+    start = min(pose_from_cdr(m.data)[0] for m in BAG.of("/fbcc/command"))
+    silent = (start + 0.5, start + 0.53)  # the features stop for 30 ms
+    for m in BAG.messages:
+        if m.topic == "/fbcc/features":
+            stamp, peg = pose_from_cdr(m.data)
+            if not silent[0] <= stamp < silent[1]:
+                stage.features(stamp, peg)
+        elif m.topic == "/ft_sensor/compensated":
+            stamp, _, wrench = wrench_from_cdr(m.data)
+            if stage.ready_to_start or (stage.sup.phase == "idle" and stamp >= start):
+                out.append(stage.sup.start(stamp))
+            command = stage.wrench(stamp, stamp, wrench)
+            if command is not None:
+                out.append(command.homogeneous)
+            out += [stage.estimate(stamp), stage.contact_state(), stage.said]
+    return [*out, stage.input_rate.measured_hz]
+
+
+STAGES = {
+    "dynamic_compensation": (compensation.TABLE, _compensation),
+    "kinematics": (kinematics.TABLE, _kinematics),
+    "fbcc_controller": (controller.TABLE, _controller),
+}
+CASES = [(node, p) for node, (table, _) in STAGES.items() for p in table]
+
+
+def _same(a: list[Any], b: list[Any]) -> bool:
+    if len(a) != len(b):
+        return False
+    for x, y in zip(a, b, strict=True):
+        if isinstance(x, np.ndarray) or isinstance(y, np.ndarray):
+            if np.shape(x) != np.shape(y) or not np.allclose(x, y, rtol=0.0, atol=1e-12):
+                return False
+        elif x != y:
+            return False
+    return True
+
+
+_RUNS: dict[str, list[Any]] = {}
+
+
+def _run(node: str, values: dict[str, Any]) -> list[Any]:
+    """What the stage puts out with these values (each set driven once)."""
+    key = f"{node}: {sorted(values.items())!r}"
+    if key not in _RUNS:
+        _RUNS[key] = STAGES[node][1](values)
+    return _RUNS[key]
+
+
+@pytest.mark.parametrize(("node", "param"), CASES, ids=[f"{n}.{p.name}" for n, p in CASES])
+def test_every_parameter_changes_what_its_stage_puts_out(node: str, param: Param) -> None:
+    base = resolve(node, STAGES[node][0], _of(CONTEXT, node, param.name) or {})
+    changed = {**base, param.name: _changed(node, param, base[param.name])}
+    assert changed[param.name] != base[param.name]
+    assert not _same(_run(node, base), _run(node, changed)), f"{param.name} changed nothing"
