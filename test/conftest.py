@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from fbcc_ros.cli.common import paper_pair
-from fbcc_ros.core.contact import PegHole
+from fbcc_ros.core.contact.model import PegHole
 
 
 @pytest.fixture(params=["clearance", "interference"])

@@ -97,7 +97,7 @@ def test_colcon_installs_what_ros2_run_looks_up(colcon_install: Path) -> None:
         [
             str(VENV_BIN / "python"),
             "-c",
-            "from fbcc_ros.core.kinematics import ROBOTS, RobotModel;"
+            "from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel;"
             "RobotModel.from_name('iiwa14'); print(ROBOTS['iiwa14']().urdf)",
         ],
         capture_output=True,
@@ -147,7 +147,7 @@ def test_readme_commands_are_what_ci_runs() -> None:
 def test_readme_scenario_example_validates() -> None:
     import yaml
 
-    from fbcc_ros.core.scenario import validate
+    from fbcc_ros.core.sim.scenario import validate
 
     readme = (ROOT / "README.md").read_text()
     block = readme.split("```yaml\n", 1)[1].split("```", 1)[0]
@@ -196,5 +196,5 @@ def _imports(path: Path) -> set[str]:
 @pytest.mark.parametrize("layer", LAYERS)
 def test_each_layer_imports_only_the_layers_below_it(layer: str) -> None:
     wrong = {str(path.relative_to(ROOT)): sorted(_imports(path) - LAYERS[layer])
-             for path in sorted((ROOT / "fbcc_ros" / layer).glob("*.py"))}  # fmt: skip
+             for path in sorted((ROOT / "fbcc_ros" / layer).rglob("*.py"))}  # fmt: skip
     assert not {k: v for k, v in wrong.items() if v}, wrong

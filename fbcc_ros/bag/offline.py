@@ -35,8 +35,8 @@ import yaml
 from numpy.typing import NDArray
 
 from fbcc_ros.bag.reader import Bag
+from fbcc_ros.core.contact.features import features_from_pose
 from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.features import features_from_pose
 from fbcc_ros.pipeline import compensation, controller, kinematics
 from fbcc_ros.pipeline.parameters import flatten, resolve
 from fbcc_ros.ros.cdr import decode_wrench

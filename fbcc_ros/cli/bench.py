@@ -15,12 +15,14 @@ import time
 import numpy as np
 
 from fbcc_ros.cli.common import paper_pair, paper_scenario
-from fbcc_ros.core.compensation import Compensator, SensorSetup
-from fbcc_ros.core.kinematics import CellKinematics, RobotModel, aligned_hole_at, follow, solve_ik
-from fbcc_ros.core.montecarlo import draw_trials, run_montecarlo
-from fbcc_ros.core.payload import Payload
-from fbcc_ros.core.scenario import validate
-from fbcc_ros.core.simulation import simulate
+from fbcc_ros.core.compensation.compensator import Compensator, SensorSetup
+from fbcc_ros.core.compensation.payload import Payload
+from fbcc_ros.core.kinematics.cell import CellKinematics, aligned_hole_at, follow
+from fbcc_ros.core.kinematics.ik import solve_ik
+from fbcc_ros.core.kinematics.robot import RobotModel
+from fbcc_ros.core.sim.montecarlo import draw_trials, run_montecarlo
+from fbcc_ros.core.sim.scenario import validate
+from fbcc_ros.core.sim.simulation import simulate
 
 # Targets of issue 2: one response <= 100 µs; batched >= 50 000 responses/s.
 SINGLE_TARGET_US = 100.0
@@ -136,8 +138,8 @@ def bench_controller(steps: int) -> dict[str, tuple[float, float]]:
     """Median and p99 [µs] of one controller period (the supervisor around the law, as the
     fbcc_controller node calls it) along a simulated assembly's measured responses and poses:
     the robust law (identification, guard and scheduling on) and Table I's label 3."""
-    from fbcc_ros.core.control import ComplianceParams, make_law
-    from fbcc_ros.core.supervisor import SafetyLimits, Supervisor
+    from fbcc_ros.core.control.laws import ComplianceParams, make_law
+    from fbcc_ros.core.control.supervisor import SafetyLimits, Supervisor
 
     sc = validate(paper_scenario("interference"))
     _, trajectory = simulate(sc, "fbcc", record=True)

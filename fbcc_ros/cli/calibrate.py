@@ -31,10 +31,8 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from fbcc_ros.core.compensation import SENSOR_FRAME, calibration_yaml, sensor_motion
-from fbcc_ros.core.errors import FbccError, InputError
-from fbcc_ros.core.kinematics import ROBOTS, RobotModel, pose
-from fbcc_ros.core.payload import (
+from fbcc_ros.core.compensation.compensator import SENSOR_FRAME, calibration_yaml, sensor_motion
+from fbcc_ros.core.compensation.payload import (
     GRAVITY_BASE,
     MAX_CONDITION,
     Calibration,
@@ -42,6 +40,8 @@ from fbcc_ros.core.payload import (
     calibrate,
     payload_wrench,
 )
+from fbcc_ros.core.errors import FbccError, InputError
+from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel, pose
 
 WRENCH = ("fx", "fy", "fz", "tx", "ty", "tz")
 QUATERNION = ("qx", "qy", "qz", "qw")

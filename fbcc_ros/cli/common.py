@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from fbcc_ros.core.contact import PegHole, lame_stiffness
+from fbcc_ros.core.contact.model import PegHole, lame_stiffness
 
 #: Hole depth L, base thickness H [m], friction (ABS on ABS) and outer radius factor b/R used by
 #: the demos: L = 10 mm is the paper's final insertion depth; H and b are not given in the paper.

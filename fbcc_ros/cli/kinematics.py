@@ -30,22 +30,13 @@ from typing import Any
 import numpy as np
 
 from fbcc_ros.cli.common import out_dir
-from fbcc_ros.core import scenario as scenario_io
-from fbcc_ros.core.contact import FEATURE_NAMES
+from fbcc_ros.core.contact.model import FEATURE_NAMES
 from fbcc_ros.core.errors import FbccError
-from fbcc_ros.core.kinematics import (
-    ROBOTS,
-    CellKinematics,
-    FollowResult,
-    IkError,
-    RobotModel,
-    Tool,
-    aligned_hole_at,
-    follow,
-    pose,
-    solve_ik,
-)
-from fbcc_ros.core.simulation import simulate
+from fbcc_ros.core.kinematics.cell import CellKinematics, FollowResult, aligned_hole_at, follow
+from fbcc_ros.core.kinematics.ik import IkError, solve_ik
+from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel, Tool, pose
+from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim.simulation import simulate
 
 
 def _parser() -> argparse.ArgumentParser:

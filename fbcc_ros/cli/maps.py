@@ -24,8 +24,8 @@ import numpy as np
 from matplotlib.colors import ListedColormap
 
 from fbcc_ros.cli.common import out_dir, paper_pair
-from fbcc_ros.core.contact import FEATURE_NAMES, RESPONSE_NAMES, PegHole
-from fbcc_ros.core.segmentation import (
+from fbcc_ros.core.contact.model import FEATURE_NAMES, RESPONSE_NAMES, PegHole
+from fbcc_ros.core.contact.segmentation import (
     STATES,
     feature_state,
     normalised_coordinates,

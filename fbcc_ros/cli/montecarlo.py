@@ -6,8 +6,8 @@
 The scenario gives the nominal geometry, gains, sensor, robot and timing (its ``initial`` is
 replaced by the random deviations). Each trial draws the deviations (default ±0.1 mm, ±2° in both
 planes), the true radii (the spreads of Table II) and, when asked, the material: k log-uniform
-(``--stiffness-gpa``) and mu uniform (``--friction``); see :mod:`fbcc_ros.core.montecarlo`. A part
-that no controller could push in (quasi-static push-in force above 2/3 of the force limit) is
+(``--stiffness-gpa``) and mu uniform (``--friction``); see :mod:`fbcc_ros.core.sim.montecarlo`. A
+part that no controller could push in (quasi-static push-in force above 2/3 of the force limit) is
 drawn again and counted, unless ``--all-parts``. Every law runs the same trials, on all local
 cores by default or on a Dask cluster (``--scheduler``), with identical results for one seed.
 
@@ -45,12 +45,12 @@ import numpy as np
 
 from fbcc_ros.cli.common import out_dir
 from fbcc_ros.cli.sim import SUMMARY_HEADER, summary_line, write_run
-from fbcc_ros.core import scenario as scenario_io
-from fbcc_ros.core.contact import FEATURE_NAMES
-from fbcc_ros.core.control import LAWS
+from fbcc_ros.core.contact.model import FEATURE_NAMES
+from fbcc_ros.core.control.laws import LAWS
 from fbcc_ros.core.errors import ConfigError
-from fbcc_ros.core.holder import Holder
-from fbcc_ros.core.montecarlo import (
+from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim.holder import Holder
+from fbcc_ros.core.sim.montecarlo import (
     BATCH,
     Trials,
     draw_trials,
@@ -58,7 +58,7 @@ from fbcc_ros.core.montecarlo import (
     run_montecarlo,
     wilson_interval,
 )
-from fbcc_ros.core.simulation import Outcome
+from fbcc_ros.core.sim.simulation import Outcome
 
 #: Metrics summarised by percentiles: (name, scale to the printed unit, unit).
 _METRICS = (
@@ -285,7 +285,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="draw mu uniform in [LOW, HIGH] per trial")
     parser.add_argument("--holder", type=float, nargs=2, metavar=("N_PER_M", "NM_PER_RAD"),
                         help="hold the peg in a holder of this lateral and angular stiffness "
-                        "(overrides the scenario's holder; fbcc_ros/core/holder.py)")
+                        "(overrides the scenario's holder; fbcc_ros/core/sim/holder.py)")
     parser.add_argument("--all-parts", action="store_true",
                         help="keep parts whose push-in force exceeds 2/3 of the force limit")
     parser.add_argument("--trial", type=int, nargs="+", metavar="N",

@@ -41,7 +41,7 @@ import numpy as np
 
 from fbcc_ros.bag.reader import Bag, read_bag
 from fbcc_ros.cli.sim_plots import Series, draw_planes, draw_trajectories
-from fbcc_ros.core.contact import FEATURE_NAMES, RESPONSE_NAMES, PegHole
+from fbcc_ros.core.contact.model import FEATURE_NAMES, RESPONSE_NAMES, PegHole
 from fbcc_ros.core.errors import FbccError
 
 NEEDED = {"/fbcc/features": "geometry_msgs/msg/PoseStamped",
@@ -65,7 +65,7 @@ class Session:
 def nominal_geometry(bag: Bag, scenario: Path | None) -> PegHole:
     """The controller's nominal pair: ``--scenario``, else the bag's controller parameters."""
     from fbcc_ros.bag.offline import node_parameters
-    from fbcc_ros.core import scenario as scenario_io
+    from fbcc_ros.core.sim import scenario as scenario_io
     from fbcc_ros.pipeline import controller
     from fbcc_ros.pipeline.parameters import resolve
 
@@ -82,8 +82,8 @@ def nominal_geometry(bag: Bag, scenario: Path | None) -> PegHole:
 
 def session(bag: Bag, nominal: PegHole) -> Session:
     """The bag's samples, decoded and aligned."""
-    from fbcc_ros.core.features import features_from_pose
-    from fbcc_ros.core.wrench import response_from_wrench
+    from fbcc_ros.core.compensation.wrench import response_from_wrench
+    from fbcc_ros.core.contact.features import features_from_pose
     from fbcc_ros.ros.cdr import decode_array, decode_string
     from fbcc_ros.ros.convert import pose_from_cdr, wrench_from_cdr
 
@@ -118,7 +118,7 @@ def session(bag: Bag, nominal: PegHole) -> Session:
 
 
 def summarise(bag: Bag, s: Session, nominal: PegHole) -> dict[str, Any]:
-    from fbcc_ros.core.segmentation import response_state
+    from fbcc_ros.core.contact.segmentation import response_state
 
     active = s.t >= 0.0
     xoz, yoz = response_state(s.response[active], s.features[active, 2], nominal)
@@ -147,8 +147,8 @@ def summarise(bag: Bag, s: Session, nominal: PegHole) -> dict[str, Any]:
 
 def draw_states(s: Session, nominal: PegHole, path: Path) -> Path:
     """The contact state of each plane and the controller's phase against time."""
-    from fbcc_ros.core.segmentation import STATES, response_state
-    from fbcc_ros.core.supervisor import PHASES
+    from fbcc_ros.core.contact.segmentation import STATES, response_state
+    from fbcc_ros.core.control.supervisor import PHASES
 
     xoz, yoz = response_state(s.response, s.features[:, 2], nominal)
     fig, axes = plt.subplots(3, 1, figsize=(12, 6.5), sharex=True,
@@ -220,7 +220,7 @@ def contact_estimate(bag: Bag, t0: float) -> tuple[np.ndarray, np.ndarray] | Non
 
 def draw_estimate(t: np.ndarray, rows: np.ndarray, path: Path) -> Path:
     """The identified stiffness of the four rows (log), the friction bound, the guard's trips."""
-    from fbcc_ros.core.identification import ESTIMATE_FIELDS
+    from fbcc_ros.core.control.identification import ESTIMATE_FIELDS
 
     col = {name: i for i, name in enumerate(ESTIMATE_FIELDS)}
     fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
@@ -256,7 +256,7 @@ def report(bag_path: Path, out: Path | None, scenario: Path | None) -> dict[str,
     summary = summarise(bag, s, nominal)
     estimate = contact_estimate(bag, s.t0)
     if estimate is not None:
-        from fbcc_ros.core.identification import ESTIMATE_FIELDS
+        from fbcc_ros.core.control.identification import ESTIMATE_FIELDS
 
         draw_estimate(*estimate, out / "estimate.png")
         summary["contact_estimate"] = dict(zip(ESTIMATE_FIELDS, estimate[1][-1].tolist(),

@@ -28,10 +28,10 @@ import numpy as np
 
 from fbcc_ros.cli.common import out_dir
 from fbcc_ros.cli.sim_plots import Series, draw_planes, draw_trajectories
-from fbcc_ros.core import scenario as scenario_io
-from fbcc_ros.core.contact import FEATURE_NAMES, RESPONSE_NAMES
+from fbcc_ros.core.contact.model import FEATURE_NAMES, RESPONSE_NAMES
 from fbcc_ros.core.errors import ConfigError
-from fbcc_ros.core.simulation import SimResult, run_scenario
+from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim.simulation import SimResult, run_scenario
 
 
 def run_files(paths: list[Path]) -> list[tuple[str, SimResult]]:

@@ -18,9 +18,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from fbcc_ros.core.contact import PegHole
-from fbcc_ros.core.segmentation import tilt_boundary_angle
-from fbcc_ros.core.simulation import SimResult
+from fbcc_ros.core.contact.model import PegHole
+from fbcc_ros.core.contact.segmentation import tilt_boundary_angle
+from fbcc_ros.core.sim.simulation import SimResult
 
 _MM, _DEG = 1e3, 180.0 / np.pi
 

@@ -34,7 +34,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from fbcc_ros.core import scenario as scenario_io
+from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.harness.cell_run import CellRun, NodeSpec
 from fbcc_ros.ros import topics
 
@@ -104,7 +104,7 @@ def measure(
 ) -> LoopFigures:
     """Runs the ``bare`` or the ``fbcc`` chain for ``seconds`` at the scenario's rate; with
     ``robust``, the ``fbcc`` chain runs the stiffness-robust law (module doc)."""
-    from fbcc_ros.core.scenario import find as find_scenario
+    from fbcc_ros.core.sim.scenario import find as find_scenario
 
     path = find_scenario(SCENARIO)
     if not robust:

@@ -28,10 +28,10 @@ from typing import Any
 import numpy as np
 
 from fbcc_ros.bag.writer import check_new_folder
-from fbcc_ros.core import scenario as scenario_io
-from fbcc_ros.core.compensation import acting_point_of
+from fbcc_ros.core.compensation.compensator import acting_point_of
 from fbcc_ros.core.errors import FbccError, InputError
-from fbcc_ros.core.simulation import score
+from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim.simulation import score
 from fbcc_ros.harness.cell_run import CellRun, NodeSpec
 from fbcc_ros.nodes.fbcc_record import CELL_TOPICS, default_folder
 from fbcc_ros.ros import topics

@@ -18,7 +18,7 @@ from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from fbcc_ros.core.compensation import Compensated
+from fbcc_ros.core.compensation.compensator import Compensated
 from fbcc_ros.core.errors import FbccError
 from fbcc_ros.pipeline.compensation import TABLE, CompensationStage
 from fbcc_ros.ros import topics

@@ -10,7 +10,7 @@ then ``identification.ESTIMATE_FIELDS``). Services ``fbcc/start`` and ``fbcc/abo
 
 The law and its supervisor are :class:`~fbcc_ros.pipeline.controller.ControllerStage`'s (the
 scenario file gives the law's nominal pair, gains and insertion). Safety
-(:mod:`fbcc_ros.core.supervisor`): a fault — force limit, stale input, non-finite input, IK
+(:mod:`fbcc_ros.core.control.supervisor`): a fault — force limit, stale input, non-finite input, IK
 failure — holds the last command and says why.
 """
 
@@ -23,8 +23,8 @@ from rclpy.node import Node
 from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import Trigger
 
+from fbcc_ros.core.control.identification import ESTIMATE_FIELDS
 from fbcc_ros.core.errors import FbccError
-from fbcc_ros.core.identification import ESTIMATE_FIELDS
 from fbcc_ros.pipeline.controller import TABLE, ControllerStage
 from fbcc_ros.ros import topics
 from fbcc_ros.ros.cdr import encode_array

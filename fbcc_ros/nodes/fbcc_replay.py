@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from fbcc_ros.bag.reader import Bag, read_bag
-from fbcc_ros.core.contact import FEATURE_NAMES
+from fbcc_ros.core.contact.model import FEATURE_NAMES
 from fbcc_ros.core.errors import FbccError, InputError
 
 #: Offline replay of a bag with its own parameters reproduces its commands within this, in m

@@ -23,7 +23,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 
 from fbcc_ros.core.errors import FbccError
-from fbcc_ros.core.kinematics import IkError
+from fbcc_ros.core.kinematics.ik import IkError
 from fbcc_ros.pipeline.kinematics import TABLE, KinematicsStage
 from fbcc_ros.ros import topics
 from fbcc_ros.ros.convert import joints_from_cdr, pose_from_cdr, pose_to_cdr, positions_to_cdr

@@ -7,8 +7,8 @@ contact of the true geometry (optionally drawn from Table II's tolerances, unkno
 controller) at the scenario's unknown hole deviation, plus the fixture's weight, the bias and
 the noise. For scoring, it also publishes the true features and response of each tick on
 ``mock_cell/truth`` (Float64MultiArray, fields in ``topics.TRUTH_FIELDS``) while anyone
-listens. The plant is :class:`fbcc_ros.core.cell.MockCell`. One node holds both roles because
-the sensor reads the arm's state of the same step.
+listens. The plant is :class:`fbcc_ros.core.sim.mock_cell.MockCell`. One node holds both roles
+because the sensor reads the arm's state of the same step.
 """
 
 from __future__ import annotations
@@ -22,11 +22,11 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from fbcc_ros.core import scenario as scenario_io
-from fbcc_ros.core.cell import MockCell
+from fbcc_ros.core.compensation.payload import Payload
+from fbcc_ros.core.contact.mapping_study import perturbed
 from fbcc_ros.core.errors import FbccError
-from fbcc_ros.core.mapping_study import perturbed
-from fbcc_ros.core.payload import Payload
+from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim.mock_cell import MockCell
 from fbcc_ros.pipeline.kinematics import CELL, cell_from
 from fbcc_ros.pipeline.parameters import Param
 from fbcc_ros.ros import topics

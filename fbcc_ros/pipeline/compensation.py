@@ -2,8 +2,8 @@
 → the wrench the peg exerts on the hole, in {H}, moments about the acting point.
 
 The pipeline, the sign conventions and the calibration file are in ``docs/compensation.md``;
-the core is :class:`~fbcc_ros.core.compensation.Compensator`. This stage builds it from its
-parameters and says when the tare is done (the first output after it), so the node can publish
+the core is :class:`~fbcc_ros.core.compensation.compensator.Compensator`. This stage builds it from
+its parameters and says when the tare is done (the first output after it), so the node can publish
 the bias it measured and the offline replay can redo or skip the tare.
 """
 
@@ -17,10 +17,10 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike
 
-from fbcc_ros.core.compensation import Compensated, Compensator, SensorSetup
+from fbcc_ros.core.compensation.compensator import Compensated, Compensator, SensorSetup
+from fbcc_ros.core.compensation.payload import Payload
 from fbcc_ros.core.errors import ConfigError
-from fbcc_ros.core.kinematics import pose
-from fbcc_ros.core.payload import Payload
+from fbcc_ros.core.kinematics.robot import pose
 from fbcc_ros.pipeline.kinematics import CELL, cell_from
 from fbcc_ros.pipeline.parameters import Param
 

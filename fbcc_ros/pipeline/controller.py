@@ -5,7 +5,7 @@ The law (``fbcc``, the ``admittance`` baseline or ``none``), its gains and the i
 from a scenario file (DESIGN §4: ``geometry`` is the nominal pair, ``controller.params`` the
 gains, ``insertion`` the depth and speed). The features are the peg's pose read with the
 nominal radius; each compensated wrench is one control period of the supervisor
-(:mod:`fbcc_ros.core.supervisor`: a fault holds the last command and says why).
+(:mod:`fbcc_ros.core.control.supervisor`: a fault holds the last command and says why).
 """
 
 from __future__ import annotations
@@ -16,13 +16,13 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from fbcc_ros.core import scenario as scenario_io
-from fbcc_ros.core.control import make_law
-from fbcc_ros.core.features import features_from_pose, pose_from_features
-from fbcc_ros.core.robust import RobustFbcc
-from fbcc_ros.core.segmentation import response_state
-from fbcc_ros.core.supervisor import SafetyLimits, Supervisor
-from fbcc_ros.core.wrench import response_from_wrench
+from fbcc_ros.core.compensation.wrench import response_from_wrench
+from fbcc_ros.core.contact.features import features_from_pose, pose_from_features
+from fbcc_ros.core.contact.segmentation import response_state
+from fbcc_ros.core.control.laws import make_law
+from fbcc_ros.core.control.robust import RobustFbcc
+from fbcc_ros.core.control.supervisor import SafetyLimits, Supervisor
+from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.pipeline.parameters import Param
 from fbcc_ros.pipeline.rate import InputRate
 

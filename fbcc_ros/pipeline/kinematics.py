@@ -14,8 +14,9 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from fbcc_ros.core.kinematics import CellKinematics, RobotModel, TcpCommand, Tool, aligned_hole_at
-from fbcc_ros.core.kinematics import pose as pose_of
+from fbcc_ros.core.kinematics.cell import CellKinematics, TcpCommand, aligned_hole_at
+from fbcc_ros.core.kinematics.robot import RobotModel, Tool
+from fbcc_ros.core.kinematics.robot import pose as pose_of
 from fbcc_ros.pipeline.parameters import Param
 
 FloatArray = NDArray[np.float64]
@@ -77,7 +78,7 @@ class KinematicsStage:
     def command(self, peg_in_hole: pin.SE3) -> TcpCommand | None:
         """The joints that place the peg at ``peg_in_hole`` within one period, from the last
         command (the measured joints before the first); None before any joints were measured.
-        Raises :class:`~fbcc_ros.core.kinematics.IkError` for a pose it cannot reach."""
+        Raises :class:`~fbcc_ros.core.kinematics.ik.IkError` for a pose it cannot reach."""
         if self.q is None:
             return None
         start = self.q if self.q_command is None else self.q_command

@@ -1,7 +1,7 @@
 """The rate a stage's input actually arrives at, against the one it is configured for.
 
-The law steps by the samples' stamps (:meth:`fbcc_ros.core.supervisor.Supervisor.period`), so a
-sensor slower than configured still gives the right time, but the gains and filters were
+The law steps by the samples' stamps (:meth:`fbcc_ros.core.control.supervisor.Supervisor.period`),
+so a sensor slower than configured still gives the right time, but the gains and filters were
 designed for the configured period, and a 100 Hz sensor behind a 1 kHz configuration is a set-up
 error a user must hear about. The measured rate is the inverse of the median interval between
 stamps over a window: a loaded cell's dropped or bunched samples move it little, a sensor at

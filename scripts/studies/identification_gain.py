@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from fbcc_ros.core.contact import PegHole
-from fbcc_ros.core.robust import RobustFbcc
-from fbcc_ros.core.robust_params import RobustParams
-from fbcc_ros.core.segmentation import apply_direction
+from fbcc_ros.core.contact.model import PegHole
+from fbcc_ros.core.contact.segmentation import apply_direction
+from fbcc_ros.core.control.robust import RobustFbcc
+from fbcc_ros.core.control.robust_params import RobustParams
 
 NOMINAL = PegHole(5.05e-3, 5.04e-3, 0.01, 0.005, 0.3, 1.84e8)
 SAMPLES = (1000, 1500, 2000, 2500)  # steps at 1 kHz

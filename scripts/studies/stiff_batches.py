@@ -17,8 +17,8 @@ import math
 
 import numpy as np
 
-from fbcc_ros.core import scenario, simulation
-from fbcc_ros.core.control import params_from_mapping
+from fbcc_ros.core.control.laws import params_from_mapping
+from fbcc_ros.core.sim import scenario, simulation
 
 BATCHES = {  # log10 k [Pa], mu, radial clearance [m]
     "hard": ((10.5, 11.0), (0.35, 0.5), (4e-6, 14e-6)),

@@ -11,9 +11,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from fbcc_ros.cli import calibrate
-from fbcc_ros.core.compensation import SENSOR_FRAME, load_calibration
-from fbcc_ros.core.kinematics import RobotModel, pose
-from fbcc_ros.core.payload import GRAVITY_BASE, Motion, Payload, payload_wrench
+from fbcc_ros.core.compensation.compensator import SENSOR_FRAME, load_calibration
+from fbcc_ros.core.compensation.payload import GRAVITY_BASE, Motion, Payload, payload_wrench
+from fbcc_ros.core.kinematics.robot import RobotModel, pose
 
 HOLDER = Payload(0.8, (0.004, -0.002, 0.06), ((4e-3, 2e-4, 0), (2e-4, 3e-3, 0), (0, 0, 1.5e-3)))
 BIAS = np.array([1.5, -0.7, 3.0, 0.05, -0.02, 0.01])

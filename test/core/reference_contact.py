@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from fbcc_ros.core.contact import PegHole
+from fbcc_ros.core.contact.model import PegHole
 
 
 def reference_response(ph: PegHole, features, n_s: int = 1200, n_alpha: int = 2400) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""The laws' coordinates (fbcc_ros.core.axis_insertion): the depth in the hole's estimated
+"""The laws' coordinates (fbcc_ros.core.control.axis_insertion): the depth in the hole's estimated
 frame is the true depth of an aligned peg in a tilted hole, depth moves along the peg's axis,
 and the estimate keeps the dither out."""
 
@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from fbcc_ros.core.axis_insertion import AXIS_TIME_CONSTANT, AxisInsertion
-from fbcc_ros.core.features import pose_from_features
+from fbcc_ros.core.contact.features import pose_from_features
+from fbcc_ros.core.control.axis_insertion import AXIS_TIME_CONSTANT, AxisInsertion
 from test.core.test_features import R, believed
 
 DT = 1e-3

@@ -1,5 +1,5 @@
-"""The dynamic compensation pipeline (fbcc_ros.core.compensation): sign and frame for a sensor
-under the hole and a wrist sensor against hand-worked cases, the virtual sensor from joint
+"""The dynamic compensation pipeline (fbcc_ros.core.compensation.compensator): sign and frame for a
+sensor under the hole and a wrist sensor against hand-worked cases, the virtual sensor from joint
 torques, a moving wrist payload, round trips through the contact model, the filters, the rejected
 samples and the calibration file."""
 
@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from fbcc_ros.core.compensation import (
+from fbcc_ros.core.compensation.compensator import (
     SENSOR_FRAME,
     Compensator,
     SensorSetup,
@@ -23,11 +23,12 @@ from fbcc_ros.core.compensation import (
     calibration_yaml,
     load_calibration,
 )
-from fbcc_ros.core.contact import PegHole
+from fbcc_ros.core.compensation.payload import Calibration, Motion, Payload, payload_wrench
+from fbcc_ros.core.compensation.wrench import transfer, wrench_from_response
+from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.kinematics import RobotModel, pose, solve_ik
-from fbcc_ros.core.payload import Calibration, Motion, Payload, payload_wrench
-from fbcc_ros.core.wrench import transfer, wrench_from_response
+from fbcc_ros.core.kinematics.ik import solve_ik
+from fbcc_ros.core.kinematics.robot import RobotModel, pose
 
 G = 9.80665
 R = 0.005  # hole radius [m]

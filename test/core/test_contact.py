@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from scipy.optimize import brentq
 
 from fbcc_ros.cli.common import paper_pair
-from fbcc_ros.core.contact import PegHole, lame_stiffness
+from fbcc_ros.core.contact.model import PegHole, lame_stiffness
 from fbcc_ros.core.errors import ConfigError, InputError
 from test.core.reference_contact import reference_response
 

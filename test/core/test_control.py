@@ -8,8 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from fbcc_ros.core.contact import PegHole
-from fbcc_ros.core.control import (
+from fbcc_ros.core.contact.model import PegHole
+from fbcc_ros.core.contact.segmentation import apply_direction, direction_matrix
+from fbcc_ros.core.control.laws import (
     AdmittanceController,
     ComplianceFilter,
     ComplianceParams,
@@ -18,7 +19,6 @@ from fbcc_ros.core.control import (
     make_law,
 )
 from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.segmentation import apply_direction, direction_matrix
 
 DT = 1e-3
 

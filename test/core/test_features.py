@@ -1,5 +1,5 @@
-"""The feature vector <-> the peg's pose in {H} (fbcc_ros.core.features): round trips, the sign
-conventions of DESIGN §3, and agreement with the contact model's geometry (eq. 5)."""
+"""The feature vector <-> the peg's pose in {H} (fbcc_ros.core.contact.features): round trips, the
+sign conventions of DESIGN §3, and agreement with the contact model's geometry (eq. 5)."""
 
 from __future__ import annotations
 
@@ -10,14 +10,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fbcc_ros.core.errors import InputError
-from fbcc_ros.core.features import (
+from fbcc_ros.core.contact.features import (
     R_ALIGNED,
     features_from_pose,
     pose_from_features,
     spin_of,
     true_features,
 )
+from fbcc_ros.core.errors import InputError
 
 R = 5.04e-3  # the paper's peg radius [m]
 

@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from fbcc_ros.core.contact import ContactBatch, PegHole
+from fbcc_ros.core.contact.model import ContactBatch, PegHole
 from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.holder import (
+from fbcc_ros.core.sim.holder import (
     ATI_GAMMA,
     LBR_GAMMA_GRIPPER,
     LBR_IIWA_ESTIMATE,
@@ -19,7 +19,7 @@ from fbcc_ros.core.holder import (
     Holder,
     grip_moments,
 )
-from fbcc_ros.core.holder_solver import HolderSolver, solve
+from fbcc_ros.core.sim.holder_solver import HolderSolver, solve
 
 DEG = math.pi / 180
 FORCE_TOL, MOMENT_TOL = 1e-3, 1e-5  # the solver's default balance tolerances [N, N·m]

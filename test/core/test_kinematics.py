@@ -1,6 +1,6 @@
-"""Robot kinematics (fbcc_ros.core.kinematics): the iiwa model against its published kinematics,
-Jacobians against finite differences, the feature and TCP solutions, IK round trips and refusals on
-the iiwa, Panda and UR5, and the errors on bad input."""
+"""Robot kinematics (fbcc_ros.core.kinematics: robot, ik, cell): the iiwa model against its
+published kinematics, Jacobians against finite differences, the feature and TCP solutions, IK
+round trips and refusals on the iiwa, Panda and UR5, and the errors on bad input."""
 
 from __future__ import annotations
 
@@ -12,19 +12,11 @@ import pinocchio as pin
 import pytest
 from scipy.spatial.transform import Rotation
 
+from fbcc_ros.core.contact.features import pose_from_features
 from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.features import pose_from_features
-from fbcc_ros.core.kinematics import (
-    ROBOTS,
-    CellKinematics,
-    IkError,
-    RobotModel,
-    Tool,
-    aligned_hole_at,
-    follow,
-    pose,
-    solve_ik,
-)
+from fbcc_ros.core.kinematics.cell import CellKinematics, aligned_hole_at, follow
+from fbcc_ros.core.kinematics.ik import IkError, solve_ik
+from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel, Tool, pose
 
 ROBOT_NAMES = ["iiwa14", "panda", "ur5"]
 PEG_RADIUS = 5.04e-3

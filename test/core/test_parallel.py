@@ -1,5 +1,6 @@
-"""Running independent tasks here, on a local pool and on a Dask cluster (fbcc_ros.core.parallel):
-the same results in the same order every way, progress reports, and clear errors."""
+"""Running independent tasks here, on a local pool and on a Dask cluster
+(fbcc_ros.core.sim.parallel): the same results in the same order every way, progress reports, and
+clear errors."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import numpy as np
 import pytest
 
 from fbcc_ros.core.errors import ConfigError
-from fbcc_ros.core.parallel import run_tasks
+from fbcc_ros.core.sim.parallel import run_tasks
 
 #: Task i: (seed, draws, delay). The first tasks are the slowest, so that with two workers they
 #: finish after later ones and a result placed by completion order would be caught.
@@ -143,7 +144,7 @@ def test_dask_missing(monkeypatch: pytest.MonkeyPatch) -> None:
 
 def test_imports_neither_dask_nor_rclpy() -> None:
     code = (
-        "import sys, fbcc_ros.core.parallel\n"
+        "import sys, fbcc_ros.core.sim.parallel\n"
         "bad = {'dask', 'distributed', 'rclpy'} & set(sys.modules)\n"
         "assert not bad, bad\n"
     )
@@ -187,8 +188,8 @@ def test_montecarlo_on_the_cluster_equals_the_local_run(scheduler: str) -> None:
     """fbcc-montecarlo's study on a Dask cluster: the same outcomes, trial by trial, as on
     local processes and in this process (the seeds travel with the tasks)."""
     from fbcc_ros.cli.common import paper_scenario
-    from fbcc_ros.core.montecarlo import draw_trials, run_montecarlo
-    from fbcc_ros.core.scenario import validate
+    from fbcc_ros.core.sim.montecarlo import draw_trials, run_montecarlo
+    from fbcc_ros.core.sim.scenario import validate
 
     sc = validate({**paper_scenario("interference"), "duration": 0.5})
     trials = draw_trials(sc.geometry, 6, seed=3, stiffness=(1e8, 1e9), friction=(0.1, 0.5))

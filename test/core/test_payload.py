@@ -1,6 +1,6 @@
-"""Dynamic compensation, part 1 (fbcc_ros.core.payload): the payload's wrench on the sensor against
-hand-worked cases and Pinocchio's rigid-body dynamics, compensation cancelling a pure payload at
-any orientation and motion, and the static calibration."""
+"""Dynamic compensation, part 1 (fbcc_ros.core.compensation.payload): the payload's wrench on the
+sensor against hand-worked cases and Pinocchio's rigid-body dynamics, compensation cancelling a
+pure payload at any orientation and motion, and the static calibration."""
 
 from __future__ import annotations
 
@@ -11,8 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.payload import (
+from fbcc_ros.core.compensation.payload import (
     GRAVITY_BASE,
     Motion,
     Payload,
@@ -22,6 +21,7 @@ from fbcc_ros.core.payload import (
     payload_wrench,
     regressor,
 )
+from fbcc_ros.core.errors import ConfigError, InputError
 
 PEG_HOLDER = Payload(
     0.8, (0.002, -0.001, 0.06), ((2e-3, 1e-5, 0.0), (1e-5, 2e-3, 0.0), (0.0, 0.0, 4e-4))

@@ -11,19 +11,24 @@ from typing import Any
 import numpy as np
 import pytest
 
-from fbcc_ros.core import identification as ident
-from fbcc_ros.core import robust_kernel
-from fbcc_ros.core.contact import PegHole
-from fbcc_ros.core.control import ComplianceParams, make_law, params_from_mapping
+from fbcc_ros.core.contact.features import true_features
+from fbcc_ros.core.contact.model import PegHole
+from fbcc_ros.core.contact.segmentation import apply_direction
+from fbcc_ros.core.control import identification as ident
+from fbcc_ros.core.control import robust_kernel
+from fbcc_ros.core.control.guard import GuardParams, OscillationGuard
+from fbcc_ros.core.control.laws import ComplianceParams, make_law, params_from_mapping
+from fbcc_ros.core.control.loop_design import (
+    depth_phase_margin,
+    design,
+    loop_margins,
+    loop_transfer,
+)
+from fbcc_ros.core.control.robust import RobustFbcc
+from fbcc_ros.core.control.robust_params import RobustParams
 from fbcc_ros.core.errors import ConfigError
-from fbcc_ros.core.features import true_features
-from fbcc_ros.core.guard import GuardParams, OscillationGuard
-from fbcc_ros.core.loop_design import depth_phase_margin, design, loop_margins, loop_transfer
-from fbcc_ros.core.robust import RobustFbcc
-from fbcc_ros.core.robust_params import RobustParams
-from fbcc_ros.core.scenario import validate
-from fbcc_ros.core.segmentation import apply_direction
-from fbcc_ros.core.simulation import simulate
+from fbcc_ros.core.sim.scenario import validate
+from fbcc_ros.core.sim.simulation import simulate
 
 DT = 1e-3
 

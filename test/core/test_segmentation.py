@@ -10,16 +10,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fbcc_ros.cli.common import paper_pair
-from fbcc_ros.core.contact import PegHole
-from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.mapping_study import classify_study, sample_features
-from fbcc_ros.core.segmentation import (
+from fbcc_ros.core.contact.mapping_study import classify_study, sample_features
+from fbcc_ros.core.contact.model import PegHole
+from fbcc_ros.core.contact.segmentation import (
     OFFSET_BAND,
     STATES,
     feature_state,
     normalised_coordinates,
     response_state,
 )
+from fbcc_ros.core.errors import ConfigError, InputError
 
 DEG = math.pi / 180
 HAT_FLIP = {"D": "D^", "D^": "D", "P": "P"}

@@ -11,10 +11,10 @@ import pytest
 
 from fbcc_ros.cli.common import paper_scenario
 from fbcc_ros.core.errors import ConfigError
-from fbcc_ros.core.holder import Holder
-from fbcc_ros.core.montecarlo import draw_trials, replay_trial, run_montecarlo, wilson_interval
-from fbcc_ros.core.scenario import validate
-from fbcc_ros.core.simulation import _Metrics, run, simulate
+from fbcc_ros.core.sim.holder import Holder
+from fbcc_ros.core.sim.montecarlo import draw_trials, replay_trial, run_montecarlo, wilson_interval
+from fbcc_ros.core.sim.scenario import validate
+from fbcc_ros.core.sim.simulation import _Metrics, run, simulate
 
 SUMMARY_KEYS = {"success", "insertion_time", "peak_fz", "residual_force", "residual_moment",
                 "tilt_overshoot", "final_features", "state_sequence"}  # fmt: skip
@@ -236,7 +236,7 @@ def test_unconverged_holder_steps_are_counted_not_lost() -> None:
 def test_the_simulator_clips_each_command_as_the_supervisor_does() -> None:
     """The ROS cell's supervisor moves each command at most ``max_step`` / ``max_step_angle``
     from the last; the simulator applies the same clip (here tightened until it acts)."""
-    from fbcc_ros.core.supervisor import SafetyLimits
+    from fbcc_ros.core.control.supervisor import SafetyLimits
 
     sc = validate({**paper_scenario("clearance"), "duration": 1.0})
     tight = SafetyLimits(max_step=2e-6, max_step_angle=1e-5)

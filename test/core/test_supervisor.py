@@ -1,5 +1,5 @@
-"""The controller's phases and safety (fbcc_ros.core.supervisor), and the mock cell's plant
-(fbcc_ros.core.cell) against the pure simulator."""
+"""The controller's phases and safety (fbcc_ros.core.control.supervisor), and the mock cell's plant
+(fbcc_ros.core.sim.mock_cell) against the pure simulator."""
 
 from __future__ import annotations
 
@@ -11,14 +11,15 @@ import numpy as np
 import pytest
 
 from fbcc_ros.cli.common import paper_scenario
-from fbcc_ros.core import scenario
-from fbcc_ros.core.cell import MockCell
-from fbcc_ros.core.compensation import Compensator, SensorSetup
-from fbcc_ros.core.control import ComplianceParams, make_law
+from fbcc_ros.core.compensation.compensator import Compensator, SensorSetup
+from fbcc_ros.core.control.laws import ComplianceParams, make_law
+from fbcc_ros.core.control.supervisor import SafetyLimits, Supervisor
 from fbcc_ros.core.errors import ConfigError
-from fbcc_ros.core.kinematics import RobotModel, aligned_hole_at
-from fbcc_ros.core.simulation import simulate
-from fbcc_ros.core.supervisor import SafetyLimits, Supervisor
+from fbcc_ros.core.kinematics.cell import aligned_hole_at
+from fbcc_ros.core.kinematics.robot import RobotModel
+from fbcc_ros.core.sim import scenario
+from fbcc_ros.core.sim.mock_cell import MockCell
+from fbcc_ros.core.sim.simulation import simulate
 
 DT = 1e-3
 
@@ -132,18 +133,24 @@ def test_compiled_kernels_are_loaded_before_the_loop() -> None:
     so no other test has loaded them already."""
     code = """if True:
         from fbcc_ros.cli.common import paper_scenario
-        from fbcc_ros.core import scenario, contact, control, robust_kernel, kinematics as kin
-        from fbcc_ros.core.cell import MockCell
+        from fbcc_ros.core.contact import model as contact
+        from fbcc_ros.core.control import laws as control
+        from fbcc_ros.core.control import robust_kernel
+        from fbcc_ros.core.kinematics import ik
+        from fbcc_ros.core.kinematics.cell import CellKinematics, aligned_hole_at
+        from fbcc_ros.core.kinematics.robot import RobotModel
+        from fbcc_ros.core.sim import scenario
+        from fbcc_ros.core.sim.mock_cell import MockCell
         sc = scenario.validate(paper_scenario("interference", "fbcc"))
         kernels = (control._law_rows, robust_kernel.robust_rows, contact._response_kernel,
-                   kin._dls_update)
+                   ik._dls_update)
         assert not any(k.signatures for k in kernels)
         control.make_law("fbcc", sc.geometry, sc.params, sc.insertion)
         control.make_law("admittance", sc.geometry, sc.params, sc.insertion)
-        robot = kin.RobotModel.from_name("iiwa14")
-        hole = kin.aligned_hole_at(robot.peg_in_base(robot.home))
+        robot = RobotModel.from_name("iiwa14")
+        hole = aligned_hole_at(robot.peg_in_base(robot.home))
         MockCell(sc, robot, hole)
-        kin.CellKinematics(robot, hole, sc.geometry.peg_radius)
+        CellKinematics(robot, hole, sc.geometry.peg_radius)
         print(*(len(k.signatures) for k in kernels))
     """
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

@@ -1,5 +1,5 @@
-"""Wrench transfer, the response vector on the wire, the virtual sensor (fbcc_ros.core.wrench) and
-the output filters (fbcc_ros.core.filters)."""
+"""Wrench transfer, the response vector on the wire, the virtual sensor
+(fbcc_ros.core.compensation.wrench) and the output filters (fbcc_ros.core.filters)."""
 
 from __future__ import annotations
 
@@ -12,16 +12,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from fbcc_ros.core.contact import PegHole
-from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.filters import LowPass, dead_band
-from fbcc_ros.core.kinematics import RobotModel
-from fbcc_ros.core.wrench import (
+from fbcc_ros.core.compensation.wrench import (
     response_from_wrench,
     transfer,
     virtual_wrench,
     wrench_from_response,
 )
+from fbcc_ros.core.contact.model import PegHole
+from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.filters import LowPass, dead_band
+from fbcc_ros.core.kinematics.robot import RobotModel
 
 finite = st.floats(-5.0, 5.0)
 vec3 = st.tuples(finite, finite, finite).map(np.array)

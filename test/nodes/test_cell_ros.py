@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from fbcc_ros.bag.reader import read_bag
-from fbcc_ros.core import scenario
-from fbcc_ros.core.contact import FEATURE_NAMES
-from fbcc_ros.core.simulation import simulate
+from fbcc_ros.core.contact.model import FEATURE_NAMES
+from fbcc_ros.core.sim import scenario
+from fbcc_ros.core.sim.simulation import simulate
 from fbcc_ros.harness.cell_run import CellRun
 from fbcc_ros.nodes.bringup import cell_nodes, run_cell, start_insertion
 from fbcc_ros.nodes.bringup import main as bringup_main

@@ -11,10 +11,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fbcc_ros.core import scenario as scenario_io
-from fbcc_ros.core.features import features_from_pose, pose_from_features
-from fbcc_ros.core.simulation import simulate
-from fbcc_ros.core.wrench import wrench_from_response
+from fbcc_ros.core.compensation.wrench import wrench_from_response
+from fbcc_ros.core.contact.features import features_from_pose, pose_from_features
+from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim.simulation import simulate
 from fbcc_ros.pipeline import controller
 from fbcc_ros.pipeline.parameters import resolve
 

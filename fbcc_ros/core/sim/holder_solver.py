@@ -1,5 +1,5 @@
 """The quasi-static equilibrium of a compliant holder in series with the contact
-(:mod:`fbcc_ros.core.holder` models the holder, its grip point and typical stiffness).
+(:mod:`fbcc_ros.core.sim.holder` models the holder, its grip point and typical stiffness).
 
 **Solver.** The contact is ~1e7-1e9 N/m stiff (or more) against a holder of 1e4-1e7 N/m, so a
 fixed-point iteration ``u <- -F(u)/k`` diverges. :class:`HolderSolver` runs a damped Newton
@@ -30,7 +30,7 @@ tolerances (so that the holder's spring is the identity and "converged" means
   an unconverged one p99 3.5 N, at most 42 N; the simulator uses them as they are).
 
 For a :class:`ContactBatch` (or its bound ``response``) the iteration is compiled (numba,
-:mod:`fbcc_ros.core.holder_kernel`) and calls the contact kernel one row at a time, so each row
+:mod:`fbcc_ros.core.sim.holder_kernel`) and calls the contact kernel one row at a time, so each row
 costs only the evaluations it needs; any other response callable runs the same iteration
 batched in numpy (all N rows per call).
 
@@ -48,11 +48,11 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
-from fbcc_ros.core import contact as contact_mod
-from fbcc_ros.core import holder_kernel
-from fbcc_ros.core.contact import ContactBatch, FloatArray, as_rows
+from fbcc_ros.core.contact import model as contact_mod
+from fbcc_ros.core.contact.model import ContactBatch, FloatArray, as_rows
 from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.holder import (
+from fbcc_ros.core.sim import holder_kernel
+from fbcc_ros.core.sim.holder import (
     BoolArray,
     Equilibrium,
     Grip,
@@ -230,7 +230,7 @@ class HolderSolver:
         response: Response,
         grip: Grip,
     ) -> tuple[FloatArray, FloatArray, BoolArray, int, int]:
-        """The iteration of :func:`fbcc_ros.core.holder_kernel.solve_rows`, batched in numpy
+        """The iteration of :func:`fbcc_ros.core.sim.holder_kernel.solve_rows`, batched in numpy
         for any callable."""
         assert self._jac is not None and self._have is not None
         jac, have = self._jac, self._have

@@ -39,11 +39,7 @@ import pinocchio as pin
 import yaml
 from numpy.typing import ArrayLike, NDArray
 
-from fbcc_ros.core.contact import PegHole
-from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.filters import LowPass, dead_band
-from fbcc_ros.core.kinematics import RobotModel
-from fbcc_ros.core.payload import (
+from fbcc_ros.core.compensation.payload import (
     GRAVITY_BASE,
     Calibration,
     Motion,
@@ -51,7 +47,11 @@ from fbcc_ros.core.payload import (
     payload_wrench,
     subtract,
 )
-from fbcc_ros.core.wrench import response_from_wrench, transfer_matrix, virtual_wrench
+from fbcc_ros.core.compensation.wrench import response_from_wrench, transfer_matrix, virtual_wrench
+from fbcc_ros.core.contact.model import PegHole
+from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.filters import LowPass, dead_band
+from fbcc_ros.core.kinematics.robot import RobotModel
 
 FloatArray = NDArray[np.float64]
 

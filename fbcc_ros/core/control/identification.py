@@ -1,7 +1,7 @@
 """Online contact identification: the local stiffness of each controlled row, and friction.
 
-The robust FBCC law (:mod:`fbcc_ros.core.robust`) schedules its gains by the contact it meets,
-so it needs, while in contact, the local slope of each direction row ``u_j = (A(l) F)_j``
+The robust FBCC law (:mod:`fbcc_ros.core.control.robust`) schedules its gains by the contact it
+meets, so it needs, while in contact, the local slope of each direction row ``u_j = (A(l) F)_j``
 (eq. 28; rows dx, dy, theta_x, theta_y) against its own feature:
 
 .. math::
@@ -25,7 +25,7 @@ itself presses the peg harder into the wall), ``c`` the slow drift. Both rows of
 regressors, hence one covariance. Increments remove the unknown hole deviation (the operating
 point) and the sensor bias; ``b`` keeps the depth motion from being read as stiffness. Excitation
 comes from the controller's own adjustments and a small dither at a frequency of its own per row
-(:mod:`fbcc_ros.core.robust`), so the regressors are not collinear.
+(:mod:`fbcc_ros.core.control.robust`), so the regressors are not collinear.
 
 **Gating and bounds.** The fit is updated only in contact (Fz or a row above its noise), so the
 free-space samples of a clearance fit do not pull the stiffness to zero; the covariance is
@@ -57,7 +57,7 @@ import math
 import numba
 import numpy as np
 
-from fbcc_ros.core.contact import FloatArray
+from fbcc_ros.core.contact.model import FloatArray
 
 #: The controlled rows of A(l) F: features dx, dy, theta_x, theta_y (indices into 5-vectors).
 ROWS = (0, 1, 3, 4)
@@ -102,7 +102,7 @@ class ContactEstimate:
         stiffness: Local stiffness of the rows (dx, dy, theta_x, theta_y) as the law uses it:
             [N/m, N/m, N/rad, N/rad] in units of ``A(l) F`` (bounded, released slowly; the
             robust law raises a tilt row further to its share of the coupling, see
-            :mod:`fbcc_ros.core.robust`).
+            :mod:`fbcc_ros.core.control.robust`).
         raw_stiffness: The least-squares diagonal of J before the floor and release (may be
             <= 0 when the data say nothing).
         coupling: Off-diagonal of J per row: d u_dx/d theta_y, d u_dy/d theta_x [N/rad],

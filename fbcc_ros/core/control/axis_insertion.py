@@ -30,7 +30,7 @@ A law therefore sees, and commands, these coordinates instead:
   in it, ``θ̂`` (the believed tilts of a peg aligned with it) following the measured tilts
   through a first-order low-pass of ``AXIS_TIME_CONSTANT`` while the peg is below the top face
   (``l > 0``), from 0 (the believed hole). {Ĥ} is placed as the deviation convention places a
-  tilted hole (:func:`fbcc_ros.core.features.true_features` with ``x_dev = (0, 0, 0, -θ̂x,
+  tilted hole (:func:`fbcc_ros.core.contact.features.true_features` with ``x_dev = (0, 0, 0, -θ̂x,
   -θ̂y)``), and λ is the peg's depth ``l`` there: the true depth once the peg is aligned and
   ``θ̂`` has converged, whatever the hole's tilt. A residual misalignment δ between the peg and
   the true hole leaves an error of at most about ``2 r |δ|`` (10 µm for 1 mrad, r = 5 mm).
@@ -48,7 +48,7 @@ import math
 import numba
 import numpy as np
 
-from fbcc_ros.core.features import FloatArray, in_deviated_hole
+from fbcc_ros.core.contact.features import FloatArray, in_deviated_hole
 
 #: Time constant of the hole-axis estimate [s]: slow against the dither (300-400 rad/s at
 #: 1 kHz), fast against an insertion (2 s).

@@ -1,7 +1,7 @@
 """The robust law's gain design: the margins of its linearised lateral loop (integrator,
 filter H_f, robot lag, delays) and of its depth loop (integrator, its own low-pass, the dither
 notches, delays), and the bandwidths that keep the stated phase margin with the stated
-``loop_delay`` (:mod:`fbcc_ros.core.robust`, module doc)."""
+``loop_delay`` (:mod:`fbcc_ros.core.control.robust`, module doc)."""
 
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
+from fbcc_ros.core.control.robust_params import DITHER_FRACTIONS, NOTCH_QUALITY, RobustParams
 from fbcc_ros.core.filters import notch_coefficients, second_order_coefficients
-from fbcc_ros.core.robust_params import DITHER_FRACTIONS, NOTCH_QUALITY, RobustParams
 
 
 @dataclasses.dataclass(frozen=True)

@@ -229,7 +229,7 @@ def true_features(
     The true hole sits at the deviation ``x_dev = (dx, dy, ·, theta_x, theta_y)`` (its depth
     ignored): a peg at the believed features 0 has the true features ``x_dev``, so
     ``T_{H H_true} = P(0) P(x_dev)^-1`` with ``P(x)`` the peg pose of features x (spin 0). The
-    plant of the simulator and the mock cell (:mod:`fbcc_ros.core.cell`).
+    plant of the simulator and the mock cell (:mod:`fbcc_ros.core.sim.mock_cell`).
 
     Args:
         pose: (N, 5) or (5,), features in the believed hole.

@@ -14,7 +14,7 @@ With ``growth`` > 1 only a growing oscillation trips it; with ``growth`` < 1 (th
 0.9) a sustained one does too — a limit cycle, which a loop delay larger than the margins allow
 settles into instead of growing without bound — while an oscillation that decays by more than
 ``1 - growth`` a half-wave never does. What to do on a trip is the law's business
-(:mod:`fbcc_ros.core.robust` backs the gains off and holds the depth).
+(:mod:`fbcc_ros.core.control.robust` backs the gains off and holds the depth).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ import math
 import numba
 import numpy as np
 
-from fbcc_ros.core.contact import FloatArray
+from fbcc_ros.core.contact.model import FloatArray
 from fbcc_ros.core.errors import ConfigError
 
 #: Columns of one signal's guard state: last sign, current half-wave peak, previous peak,

@@ -1,6 +1,6 @@
 """The hardware-free cell: a position-controlled arm and a force/torque sensor under the true hole.
 
-This is the plant of :mod:`fbcc_ros.core.simulation` in joint space, for the mock nodes:
+This is the plant of :mod:`fbcc_ros.core.sim.simulation` in joint space, for the mock nodes:
 
 * **the hole** is where the cell's configuration says (``hole_in_base``, what the controller
   believes) displaced by the scenario's unknown deviation ``x_dev``: the true hole is placed so
@@ -27,14 +27,16 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from fbcc_ros.core.compensation import acting_point_of
-from fbcc_ros.core.contact import PegHole
+from fbcc_ros.core.compensation.compensator import acting_point_of
+from fbcc_ros.core.compensation.payload import Motion, Payload, payload_wrench
+from fbcc_ros.core.compensation.wrench import transfer_matrix, wrench_from_response
+from fbcc_ros.core.contact.features import pose_from_features
+from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.errors import InputError
-from fbcc_ros.core.features import pose_from_features
-from fbcc_ros.core.kinematics import CellKinematics, RobotModel, solve_ik
-from fbcc_ros.core.payload import Motion, Payload, payload_wrench
-from fbcc_ros.core.scenario import Scenario
-from fbcc_ros.core.wrench import transfer_matrix, wrench_from_response
+from fbcc_ros.core.kinematics.cell import CellKinematics
+from fbcc_ros.core.kinematics.ik import solve_ik
+from fbcc_ros.core.kinematics.robot import RobotModel
+from fbcc_ros.core.sim.scenario import Scenario
 
 FloatArray = NDArray[np.float64]
 

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.spatial import cross, skew
+from fbcc_ros.core.kinematics.spatial import cross, skew
 
 FloatArray = NDArray[np.float64]
 

@@ -5,22 +5,23 @@ The plant, per trial:
 * **the hole** sits at an unknown deviation ``x_dev = (dx, dy, 0, theta_x, theta_y)`` from where
   the robot believes it is: a peg at the believed features 0 has the true features ``x_dev``.
   The true features of the robot's pose ``p`` (features of the believed hole) follow exactly,
-  ``T_{H_true P} = P(x_dev) P(0)^-1 P(p)`` (:func:`fbcc_ros.core.features.true_features`, the
-  mock cell's plant too);
+  ``T_{H_true P} = P(x_dev) P(0)^-1 P(p)`` (:func:`fbcc_ros.core.contact.features.true_features`,
+  the mock cell's plant too);
 * **the robot** is position controlled: ``p`` follows the command x_c with a first-order lag,
   ``p(k+1) = p(k) + (1 - exp(-dt/tau)) (x_c(k) - p(k))``;
-* **the contact** is the analytic model of eq. (5)-(13) (:mod:`fbcc_ros.core.contact`), with the
+* **the contact** is the analytic model of eq. (5)-(13) (:mod:`fbcc_ros.core.contact.model`), with
+the
   true radii; the peg touches nothing while its depth is <= 0;
 * **the holder** (scenario ``holder``, absent: rigid) is a spring at the grip point in series
   with the contact: each step the peg settles where the holder balances the contact
-  (:class:`fbcc_ros.core.holder_solver.HolderSolver`), and the true features are that position;
+  (:class:`fbcc_ros.core.sim.holder_solver.HolderSolver`), and the true features are that position;
 * **the sensor** adds its bias and white Gaussian noise; the dynamic compensation is taken as
   ideal apart from that bias (issue "dynamic compensation" models the rest).
 
 The controller sees the measured wrench and the depth of ``p`` (its feature solution), and knows
 only the nominal geometry. Each step: contact → sensor → control law → the supervisor's step
-clip (:meth:`fbcc_ros.core.supervisor.SafetyLimits.clip`, the controller's default limits, as
-the ROS cell's controller applies them) → robot.
+clip (:meth:`fbcc_ros.core.control.supervisor.SafetyLimits.clip`, the controller's default limits,
+as the ROS cell's controller applies them) → robot.
 
 Metrics (summary keys of DESIGN §4), per trial:
 
@@ -49,7 +50,7 @@ Metrics (summary keys of DESIGN §4), per trial:
     the contact states (Fig. 4) the features went through, ``"XOZ/YOZ"``, repeats collapsed.
 ``holder_unconverged`` (extra)
     with a compliant holder, the steps whose equilibrium the solver left unconverged (used as
-    its best point: :mod:`fbcc_ros.core.holder_solver`); 0 with a rigid one.
+    its best point: :mod:`fbcc_ros.core.sim.holder_solver`); 0 with a rigid one.
 
 All quantities are the true ones (from the model, before the sensor), not the measured ones.
 """
@@ -63,14 +64,14 @@ from typing import Any
 
 import numpy as np
 
-from fbcc_ros.core.contact import FEATURE_NAMES, ContactBatch, FloatArray, PegHole
-from fbcc_ros.core.control import make_law
+from fbcc_ros.core.contact.features import true_rows
+from fbcc_ros.core.contact.model import FEATURE_NAMES, ContactBatch, FloatArray, PegHole
+from fbcc_ros.core.contact.segmentation import feature_state
+from fbcc_ros.core.control.laws import make_law
+from fbcc_ros.core.control.supervisor import SafetyLimits
 from fbcc_ros.core.errors import ConfigError, FbccError
-from fbcc_ros.core.features import true_rows
-from fbcc_ros.core.holder_solver import HolderSolver
-from fbcc_ros.core.scenario import Scenario, validate
-from fbcc_ros.core.segmentation import feature_state
-from fbcc_ros.core.supervisor import SafetyLimits
+from fbcc_ros.core.sim.holder_solver import HolderSolver
+from fbcc_ros.core.sim.scenario import Scenario, validate
 
 #: Fraction of the run at its end over which the residual responses are averaged.
 RESIDUAL_WINDOW = 0.1

@@ -4,8 +4,8 @@ Table I's gains fix the loop's crossover to ``k_c / K`` for a contact stiffness 
 label is stable only below one stiffness (``docs/reproduction.md``). This law keeps FBCC's
 structure — the direction rows ``u = A(l) F`` of eq. 28, a second-order filter (eq. 27), an
 integrator (Algorithm 1) — and schedules the integrators' gains by the identified stiffness of
-each plane (:mod:`fbcc_ros.core.identification`), so that every lateral loop crosses over at the
-same ``bandwidth`` whatever the part. Per plane (offset d, tilt θ):
+each plane (:mod:`fbcc_ros.core.control.identification`), so that every lateral loop crosses over
+at the same ``bandwidth`` whatever the part. Per plane (offset d, tilt θ):
 
 .. math::
     \\bar u = H_f(s)\\,u,\\qquad
@@ -20,17 +20,18 @@ step does) Ĵ⁻¹ finishes the decoupling; with no coupling it is ``ω_c / k̂_
 ``dz`` a dead zone of ``dead_band`` noise deviations (so the integrators do not random-walk on
 sensor noise, which the paper's ``x_d_limit`` is for). With ``Ĵ = J`` each decoupled loop is
 ``L(s) = ω_c H_f(s) G_robot(s) / s``, with the margins
-:func:`~fbcc_ros.core.loop_design.loop_margins` computes; an error ``k_j / k̂_j = ρ`` scales the
-loop gain by ρ, so the gain margin is the largest stiffness underestimate the loop survives. The
-identification is meant to err stiff (floor, slow release; on stiff interference contacts it
-errs soft instead, ρ up to ~5.5: ``docs/reproduction.md``) and the
-oscillation guard (:mod:`fbcc_ros.core.guard`) backs a row's gain off by ``guard_backoff`` (the
-stiffness in use, at once, whatever the fit says) when its filtered response oscillates without
-decaying (a growing oscillation, or a limit cycle such as a delay the margins did not budget for
-makes), and holds the depth for ``guard_hold``. The tilt
+:func:`~fbcc_ros.core.control.loop_design.loop_margins` computes; an error ``k_j / k̂_j = ρ``
+scales the loop gain by ρ, so the gain margin is the largest stiffness underestimate the loop
+survives. The identification is meant to err stiff (floor, slow release; on stiff interference
+contacts it errs soft instead, ρ up to ~5.5: ``docs/reproduction.md``) and the
+oscillation guard (:mod:`fbcc_ros.core.control.guard`) backs a row's gain off by ``guard_backoff``
+(the stiffness in use, at once, whatever the fit says) when its filtered response oscillates
+without decaying (a growing oscillation, or a limit cycle such as a delay the margins did not
+budget for makes), and holds the depth for ``guard_hold``. The tilt
 integrators wait until the peg is ``tilt_depth`` in: at the entry a tilt row's lever arms are too
 short to tell a tilt from an offset. The law runs in the coordinates of
-:mod:`fbcc_ros.core.axis_insertion` (depth along the peg's axis, in the hole's estimated frame).
+:mod:`fbcc_ros.core.control.axis_insertion` (depth along the peg's axis, in the hole's estimated
+frame).
 
 **Coupled tilt row.** In a tight stiff fit a tilt step moves the plane's offset row far more
 than its own: the tilt row's identified slope is noise about zero while ∂u_d/∂θ is 1e4 N/rad, so
@@ -72,15 +73,16 @@ and its identified depth sensitivity ``∂e/∂l`` (the RLS's ``b_j``), the dept
     -v, v\\right)\\ \\text{in contact},\\qquad \\dot l_c = v\\ \\text{otherwise},
 
 a depth loop that holds ``e`` at 1 with the bandwidth ``depth_bandwidth``, whatever the
-stiffness, or less: :func:`~fbcc_ros.core.loop_design.design` keeps its phase margin too, with
-what is in it (39.5 rad/s at the defaults). The depth loop sees the rows through its own
+stiffness, or less: :func:`~fbcc_ros.core.control.loop_design.design` keeps its phase margin too,
+with what is in it (39.5 rad/s at the defaults). The depth loop sees the rows through its own
 low-pass (``depth_filter_frequency``), not H_f, whose lag would hold it to 29.5 rad/s, and past
 the dither notches. The command never leads the measured depth by more than
 ``v * depth_lead``, so a hold takes effect within a sample. An axial force above
 ``fz_back_off`` backs off.
 
 State per trial lives in one float array, stepped by one compiled kernel for the
-simulator's batch and the controller's single row alike (:mod:`fbcc_ros.core.robust_kernel`).
+simulator's batch and the controller's single row alike
+(:mod:`fbcc_ros.core.control.robust_kernel`).
 """
 
 from __future__ import annotations
@@ -90,18 +92,18 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike
 
-from fbcc_ros.core import guard as guard_mod
-from fbcc_ros.core import identification as ident
-from fbcc_ros.core import robust_kernel as rk
-from fbcc_ros.core.axis_insertion import AxisInsertion
-from fbcc_ros.core.contact import FloatArray, PegHole, as_rows
+from fbcc_ros.core.contact.model import FloatArray, PegHole, as_rows
+from fbcc_ros.core.control import guard as guard_mod
+from fbcc_ros.core.control import identification as ident
+from fbcc_ros.core.control import robust_kernel as rk
+from fbcc_ros.core.control.axis_insertion import AxisInsertion
+from fbcc_ros.core.control.robust_params import RobustParams
 from fbcc_ros.core.errors import InputError
-from fbcc_ros.core.robust_params import RobustParams
 
 
 class RobustFbcc:
     """The stiffness-robust FBCC law (module doc), with the interface of
-    :class:`fbcc_ros.core.control.ComplianceLaw`: ``reset(features)``, then
+    :class:`fbcc_ros.core.control.laws.ComplianceLaw`: ``reset(features)``, then
     ``step(response, features, dt)`` once per period returns the command features x_c.
 
     ``features`` are the measured ones (the robot's feature solution); the identification needs
@@ -112,7 +114,7 @@ class RobustFbcc:
 
     def __init__(self, nominal: PegHole, params: RobustParams | None = None,
                  insertion: Any = None) -> None:  # fmt: skip
-        from fbcc_ros.core.control import Insertion  # control imports this module
+        from fbcc_ros.core.control.laws import Insertion  # control imports this module
 
         self.nominal = nominal
         self.params = params or RobustParams()

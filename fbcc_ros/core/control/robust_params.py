@@ -1,6 +1,7 @@
 """The robust law's configuration (:class:`RobustParams`): every field with its unit, range
 and check, as ``controller.params`` without a ``label`` gives it (DESIGN §6).
-:mod:`fbcc_ros.core.robust` is the law; :mod:`fbcc_ros.core.loop_design` its gain design."""
+:mod:`fbcc_ros.core.control.robust` is the law; :mod:`fbcc_ros.core.control.loop_design` its gain
+design."""
 
 from __future__ import annotations
 
@@ -11,8 +12,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from fbcc_ros.core import guard as guard_mod
-from fbcc_ros.core.contact import FloatArray
+from fbcc_ros.core.contact.model import FloatArray
+from fbcc_ros.core.control import guard as guard_mod
 from fbcc_ros.core.errors import ConfigError, InputError, require_number
 from fbcc_ros.core.filters import second_order_coefficients
 
@@ -34,7 +35,7 @@ class RobustParams:
     Attributes:
         bandwidth: Largest ω_c, the crossover of every lateral loop [rad/s]; the law runs with
             less when ``loop_delay`` leaves less than ``phase_margin``
-            (:func:`~fbcc_ros.core.loop_design.design`).
+            (:func:`~fbcc_ros.core.control.loop_design.design`).
         loop_delay: The cell's delay from a command to its effect in the measured features
             and wrench [s]: the robot's servo and drivers, the nodes' queues; the margins budget
             for it. A lateral loop of a cell with more oscillates, which the guard catches; the
@@ -56,7 +57,7 @@ class RobustParams:
         offset_force: U of the offset rows: the lateral force at which the insertion holds [N].
         tilt_effort: U of the tilt rows [N, units of A(l) F].
         depth_bandwidth: Largest ω_l of the depth loop [rad/s]
-            (:func:`~fbcc_ros.core.loop_design.design`).
+            (:func:`~fbcc_ros.core.control.loop_design.design`).
         depth_filter_frequency: ω of the second-order low-pass (damping ``filter_damping``)
             through which the depth loop sees the rows [rad/s]: faster than H_f, whose lag at
             the depth loop's crossover (16° at 30 rad/s) would cut its bandwidth under the
@@ -68,7 +69,7 @@ class RobustParams:
         fz_back_off: Axial force above which the insertion backs off [N]: above the largest
             push-in the law is asked to make (the studies admit 2/3 of ``F_ext_limit``, 200 N;
             backing off at 200 N itself left such parts hovering short of the depth).
-        guard_growth, guard_cycles: :class:`fbcc_ros.core.guard.GuardParams`; the guard's
+        guard_growth, guard_cycles: :class:`fbcc_ros.core.control.guard.GuardParams`; the guard's
             minimum amplitude is ``guard_amplitude`` times the row's filtered noise.
         guard_amplitude: See above (dimensionless).
         guard_backoff: Factor by which a tripped row's gain falls (> 1).
@@ -96,7 +97,8 @@ class RobustParams:
             resolves: each row's stiffness is at least its filtered noise over this, so noise
             alone cannot drive a row by more.
         F_ext_limit: Force limit [N] on |(Fx, Fy, Fz)|: the insertion stops for good above it
-            (Algorithm 1's loop condition), as in :class:`fbcc_ros.core.control.ComplianceParams`.
+            (Algorithm 1's loop condition), as in
+            :class:`fbcc_ros.core.control.laws.ComplianceParams`.
     """
 
     bandwidth: float = 30.0

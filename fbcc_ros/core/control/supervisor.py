@@ -28,7 +28,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fbcc_ros.core.control import Law
+from fbcc_ros.core.control.laws import Law
 from fbcc_ros.core.errors import ConfigError
 
 FloatArray = NDArray[np.float64]

@@ -1,10 +1,10 @@
 """The compliance of what holds the peg (arm + F/T sensor + gripper), in series with the contact.
 
-The simulator's plant (:mod:`fbcc_ros.core.simulation`) holds the peg rigidly: the true features
-are the robot's pose plus the hole's deviation. A real peg sits at the end of a chain of springs —
-the arm's joints, the F/T sensor's flexures, the grip of the fingers — so under a contact wrench it
-deflects, and the contact, much stiffer than the chain, sees far less force than a rigid holder
-would put through it. This module models the holder; :mod:`fbcc_ros.core.holder_solver`
+The simulator's plant (:mod:`fbcc_ros.core.sim.simulation`) holds the peg rigidly: the true
+features are the robot's pose plus the hole's deviation. A real peg sits at the end of a chain of
+springs — the arm's joints, the F/T sensor's flexures, the grip of the fingers — so under a contact
+wrench it deflects, and the contact, much stiffer than the chain, sees far less force than a rigid
+holder would put through it. This module models the holder; :mod:`fbcc_ros.core.sim.holder_solver`
 finds the quasi-static equilibrium.
 
 **Model.** The holder is one diagonal spring at the *grip point* G, the centre of the peg's top
@@ -95,7 +95,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from fbcc_ros.core.contact import ContactBatch, FloatArray
+from fbcc_ros.core.contact.model import ContactBatch, FloatArray
 from fbcc_ros.core.errors import ConfigError, InputError
 
 #: A contact response: features (N, 5) -> wrench on the hole (N, 5), e.g. ContactBatch.response.

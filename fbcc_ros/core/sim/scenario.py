@@ -15,7 +15,7 @@ sensor         noise: standard deviations of (Fx, Fy, Fz, Mx, My) [N, N·m] or 0
                (default 0.05 N, 0.002 N·m); bias: (Fx, Fy, Fz, Mx, My) (default 0)
 robot          lag: time constant of the position-controlled robot [s] (0.005)
 holder         the compliance of arm, sensor and gripper at the grip point (absent: rigid):
-               lateral [N/m], angular [N·m/rad] (fbcc_ros/core/holder.py has typical values)
+               lateral [N/m], angular [N·m/rad] (fbcc_ros/core/sim/holder.py has typical values)
 tolerance      success tolerances: offset [m] (2e-5), tilt [rad] (0.0035), depth [m] (1e-5),
                force [N] (1.0): a plane whose lateral force is below it counts as settled
 rate_hz        control and simulation rate [Hz] (1000)
@@ -39,10 +39,10 @@ from typing import Any
 import numpy as np
 import yaml
 
-from fbcc_ros.core.contact import FloatArray, PegHole
-from fbcc_ros.core.control import LAWS, Insertion, Params, params_from_mapping
+from fbcc_ros.core.contact.model import FloatArray, PegHole
+from fbcc_ros.core.control.laws import LAWS, Insertion, Params, params_from_mapping
 from fbcc_ros.core.errors import ConfigError, closest
-from fbcc_ros.core.holder import Holder
+from fbcc_ros.core.sim.holder import Holder
 
 #: Plausibility ranges (SI): a value outside smells of mm, degrees or GPa given by mistake.
 _LENGTH_MAX = 0.5  # [m] radii and depths of a peg for a robot cell
@@ -59,7 +59,7 @@ DEFAULT_TOLERANCE = {"offset": 2e-5, "tilt": 0.0035, "depth": 1e-5, "force": 1.0
 
 @dataclasses.dataclass(frozen=True)
 class Tolerance:
-    """What counts as assembled (see :mod:`fbcc_ros.core.simulation`): per plane |d| <= offset
+    """What counts as assembled (see :mod:`fbcc_ros.core.sim.simulation`): per plane |d| <= offset
     [m] and |theta| <= tilt [rad], or the lateral force <= force [N]; the depth within ``depth``
     [m] of the final depth."""
 
@@ -311,7 +311,7 @@ def find(value: str) -> Path:
             return shared
     except (ImportError, LookupError, KeyError, ValueError, OSError):
         pass
-    package = Path(__file__).resolve().parents[2] / value  # a source checkout
+    package = Path(__file__).resolve().parents[3] / value  # a source checkout
     if package.is_file():
         return package
     raise ConfigError("scenario", value, "the path of a scenario YAML (DESIGN §4)")

@@ -1,4 +1,4 @@
-"""The compiled damped Newton iteration of :class:`fbcc_ros.core.holder_solver.HolderSolver`,
+"""The compiled damped Newton iteration of :class:`fbcc_ros.core.sim.holder_solver.HolderSolver`,
 one row at a time (the solver's module doc describes the steps; ``HolderSolver._batched`` runs
 the same steps in numpy for any response callable): numpy's per-call overhead over 4x4 blocks
 of a 128-row batch would cost several times the contact kernel itself. Residuals are scaled by
@@ -12,9 +12,9 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from fbcc_ros.core import contact as contact_mod
-from fbcc_ros.core.contact import FloatArray
-from fbcc_ros.core.holder import BoolArray
+from fbcc_ros.core.contact import model as contact_mod
+from fbcc_ros.core.contact.model import FloatArray
+from fbcc_ros.core.sim.holder import BoolArray
 
 #: Forward-difference steps of the Jacobian: u_x, u_y [m], phi_x, phi_y [rad]. Small against the
 #: microns the peg moves, large against rounding (3e9 N/m × 1e-9 m = 3 N vs ~1e-8 N noise).
@@ -71,7 +71,7 @@ def _touches_nothing(wbuf: FloatArray) -> bool:
 @numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
 def _is_off_wall(q: FloatArray, wbuf: FloatArray) -> bool:
     """Whether deflection q touches nothing with the holder deflected (one row; the wrench in
-    wbuf[0]): no equilibrium, see :mod:`fbcc_ros.core.holder_solver`."""
+    wbuf[0]): no equilibrium, see :mod:`fbcc_ros.core.sim.holder_solver`."""
     if not _touches_nothing(wbuf):
         return False
     return bool(q[0] != 0.0 or q[1] != 0.0 or q[2] != 0.0 or q[3] != 0.0)

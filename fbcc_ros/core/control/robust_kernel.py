@@ -1,4 +1,4 @@
-"""The compiled per-period step of the robust law (:mod:`fbcc_ros.core.robust` is the law
+"""The compiled per-period step of the robust law (:mod:`fbcc_ros.core.control.robust` is the law
 and its doc): the layout of its per-trial state and of its parameter vector, the vector's
 values for a configuration, and the kernel that steps every trial (row) in place."""
 
@@ -10,9 +10,12 @@ from typing import Any
 import numba
 import numpy as np
 
-from fbcc_ros.core import guard as guard_mod
-from fbcc_ros.core import identification as ident
-from fbcc_ros.core.contact import FloatArray, PegHole
+from fbcc_ros.core.contact.model import FloatArray, PegHole
+from fbcc_ros.core.contact.segmentation import direct_row
+from fbcc_ros.core.control import guard as guard_mod
+from fbcc_ros.core.control import identification as ident
+from fbcc_ros.core.control.loop_design import design
+from fbcc_ros.core.control.robust_params import DITHER_FRACTIONS, NOTCH_QUALITY, RobustParams
 from fbcc_ros.core.filters import (
     notch_coefficients,
     notch_step,
@@ -20,9 +23,6 @@ from fbcc_ros.core.filters import (
     second_order_row,
     second_order_step,
 )
-from fbcc_ros.core.loop_design import design
-from fbcc_ros.core.robust_params import DITHER_FRACTIONS, NOTCH_QUALITY, RobustParams
-from fbcc_ros.core.segmentation import direct_row
 
 #: Per row j (dx, dy, theta_x, theta_y): the other row of its plane (identification.PLANES).
 PARTNER = tuple(sum(plane) - j for j in range(4) for plane in ident.PLANES if j in plane)

@@ -34,13 +34,13 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike
 
-from fbcc_ros.core.axis_insertion import AxisInsertion
-from fbcc_ros.core.contact import FloatArray, PegHole, as_rows
+from fbcc_ros.core.contact.model import FloatArray, PegHole, as_rows
+from fbcc_ros.core.contact.segmentation import direct_row
+from fbcc_ros.core.control.axis_insertion import AxisInsertion
+from fbcc_ros.core.control.robust import RobustFbcc
+from fbcc_ros.core.control.robust_params import RobustParams
 from fbcc_ros.core.errors import ConfigError, InputError, require_number
 from fbcc_ros.core.filters import second_order_row
-from fbcc_ros.core.robust import RobustFbcc
-from fbcc_ros.core.robust_params import RobustParams
-from fbcc_ros.core.segmentation import direct_row
 
 #: Table I of the paper: (M_dp, K_dp, M_do, K_do, M_dl, K_dl) per label; D_d = sqrt(M_d K_d).
 TABLE_I: dict[int, tuple[float, float, float, float, float, float]] = {
@@ -461,8 +461,8 @@ def make_law(
     """The law called ``name``: ``fbcc``, ``admittance`` or ``none``.
 
     With the robust configuration (the default, ``params`` None or :class:`RobustParams`),
-    ``fbcc`` is the stiffness-robust law of :mod:`fbcc_ros.core.robust`; the baselines have no
-    robust form and run with their shipped gains, Table I label 3 (keeping its force limit).
+    ``fbcc`` is the stiffness-robust law of :mod:`fbcc_ros.core.control.robust`; the baselines have
+    no robust form and run with their shipped gains, Table I label 3 (keeping its force limit).
     """
     if name not in LAWS:
         raise ConfigError("controller.type", name, f"one of {sorted(LAWS)}")

@@ -16,8 +16,8 @@ A part whose quasi-static push-in force (:meth:`PegHole.push_in_force` at L) exc
 
 Every law sees the same trials (same seed). The trials are split in batches that run in lockstep
 (:func:`simulation.simulate`) on a pool of local processes or on a Dask cluster
-(:mod:`fbcc_ros.core.parallel`); batch j's sensor noise is seeded with ``scenario.seed + j``, so a
-trial's outcome depends only on the seeds, not on where or on how many workers it ran.
+(:mod:`fbcc_ros.core.sim.parallel`); batch j's sensor noise is seeded with ``scenario.seed + j``,
+so a trial's outcome depends only on the seeds, not on where or on how many workers it ran.
 """
 
 from __future__ import annotations
@@ -28,12 +28,12 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from fbcc_ros.core.contact import FloatArray, PegHole
+from fbcc_ros.core.contact.mapping_study import perturbed
+from fbcc_ros.core.contact.model import FloatArray, PegHole
 from fbcc_ros.core.errors import ConfigError
-from fbcc_ros.core.mapping_study import perturbed
-from fbcc_ros.core.parallel import run_tasks
-from fbcc_ros.core.scenario import Scenario
-from fbcc_ros.core.simulation import Outcome, SimResult, Trajectory, simulate, state_sequence
+from fbcc_ros.core.sim.parallel import run_tasks
+from fbcc_ros.core.sim.scenario import Scenario
+from fbcc_ros.core.sim.simulation import Outcome, SimResult, Trajectory, simulate, state_sequence
 
 DEFAULT_MAX_OFFSET = 1e-4  # [m]
 DEFAULT_MAX_TILT = math.radians(2.0)  # [rad]
@@ -171,7 +171,7 @@ def run_montecarlo(
         batch: Trials per task (the lockstep batch size).
         progress: Called with (tasks done, tasks total) as tasks finish.
         scheduler: Address of a running Dask scheduler to run the tasks on instead
-            (:func:`fbcc_ros.core.parallel.run_tasks`); the results are the same.
+            (:func:`fbcc_ros.core.sim.parallel.run_tasks`); the results are the same.
     """
     if workers is not None and not (isinstance(workers, int) and workers >= 1):
         raise ConfigError("workers", workers, "an integer >= 1")

@@ -1,0 +1,1 @@
+"""The arm: robot models, inverse kinematics, the cell's feature and TCP solutions."""

@@ -1,0 +1,274 @@
+"""Robot models with Pinocchio: an arm by name (``iiwa14`` from this package's URDF; ``panda``
+and ``ur5`` from example-robot-data) or from any URDF, with the peg (tool) frame {P} added to its
+flange; the FK of the peg frame and frame Jacobians.
+
+Frames: ``base`` is the robot's root (the URDF's first link), {F} the flange, {P} the peg frame
+(``fbcc_ros.core.contact.features``: origin at the tip centre, z along the peg out of the
+flange). A pose named ``peg_in_base`` is ``T_base_P`` (``pin.SE3``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.metadata
+import math
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+from numpy.typing import ArrayLike, NDArray
+
+from fbcc_ros.core.errors import ConfigError, InputError
+
+FloatArray = NDArray[np.float64]
+
+PEG_FRAME = "peg"
+
+_URDF_DIR = Path(__file__).resolve().parents[2] / "urdf"
+
+
+def _example_robot_data(relative: str) -> Path:
+    """A file of the example-robot-data wheel (installed under ``cmeel.prefix``)."""
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError as exc:
+        raise ConfigError(
+            "robot", relative, "example-robot-data installed (pip install example-robot-data)"
+        ) from exc
+    return Path(str(dist.locate_file(f"cmeel.prefix/share/example-robot-data/robots/{relative}")))
+
+
+@dataclasses.dataclass(frozen=True)
+class RobotSpec:
+    """Where a named robot's model comes from.
+
+    Attributes:
+        urdf: Path of the URDF.
+        flange_frame: The frame the tool is mounted on.
+        locked_joints: Joints held at zero and removed from the model (e.g. gripper fingers).
+        home: A configuration with the flange pointing down over the table [rad].
+    """
+
+    urdf: Path
+    flange_frame: str
+    locked_joints: tuple[str, ...] = ()
+    home: tuple[float, ...] = ()
+
+
+#: Robots known by name. The iiwa's net pitch q2 - q4 + q6 = pi points its flange down.
+ROBOTS: dict[str, Callable[[], RobotSpec]] = {
+    "iiwa14": lambda: RobotSpec(
+        urdf=_URDF_DIR / "iiwa14.urdf",
+        flange_frame="iiwa_flange",
+        home=(0.0, 0.5, 0.0, -1.5, 0.0, math.pi - 2.0, 0.0),
+    ),
+    "panda": lambda: RobotSpec(
+        urdf=_example_robot_data("panda_description/urdf/panda.urdf"),
+        flange_frame="panda_link8",
+        locked_joints=("panda_finger_joint1", "panda_finger_joint2"),
+        home=(0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785),
+    ),
+    "ur5": lambda: RobotSpec(
+        urdf=_example_robot_data("ur_description/urdf/ur5_robot.urdf"),
+        flange_frame="tool0",
+        home=(0.0, -1.571, 1.571, -1.571, -1.571, 0.0),
+    ),
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class Tool:
+    """Placement of the peg frame {P} in the flange frame {F}.
+
+    Attributes:
+        xyz: Position of the peg tip's centre in {F} [m].
+        rpy: Orientation of {P} in {F}, roll-pitch-yaw about fixed x, y, z [rad] (URDF order).
+    """
+
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.10)
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def placement(self) -> pin.SE3:
+        for field, value in (("tool.xyz", self.xyz), ("tool.rpy", self.rpy)):
+            arr = np.asarray(value, dtype=float)
+            if arr.shape != (3,) or not np.isfinite(arr).all():
+                raise ConfigError(field, value, "3 finite numbers [m] or [rad]")
+        return pin.SE3(pin.rpy.rpyToMatrix(*self.rpy), np.asarray(self.xyz, dtype=float))
+
+
+class RobotModel:
+    """A fixed-base arm with the peg frame on its flange.
+
+    Args:
+        urdf: Path of the URDF (meshes are not needed).
+        flange_frame: Name of the frame the tool is mounted on.
+        tool: Placement of the peg frame in the flange frame.
+        locked_joints: Joints to hold at zero and remove (gripper fingers).
+        name: For messages.
+    """
+
+    def __init__(
+        self,
+        urdf: str | Path,
+        flange_frame: str,
+        tool: Tool | None = None,
+        locked_joints: Sequence[str] = (),
+        name: str | None = None,
+    ) -> None:
+        path = Path(urdf)
+        if not path.is_file():
+            raise ConfigError("urdf", str(path), "the path of an existing URDF file")
+        try:
+            model = pin.buildModelFromUrdf(str(path))
+        except (ValueError, RuntimeError) as exc:
+            raise ConfigError("urdf", str(path), f"a URDF Pinocchio can parse ({exc})") from exc
+        self.name = name or model.name
+        if locked_joints:
+            missing = [j for j in locked_joints if not model.existJointName(j)]
+            if missing:
+                raise ConfigError(
+                    "locked_joints", missing, f"joints of {path.name}: {_joint_names(model)}"
+                )
+            ids = [model.getJointId(j) for j in locked_joints]
+            model = pin.buildReducedModel(model, ids, pin.neutral(model))
+        if not model.existFrame(flange_frame):
+            frames = [f.name for f in model.frames if f.type == pin.FrameType.BODY]
+            raise ConfigError("flange_frame", flange_frame, f"a link of {path.name}: {frames}")
+        if model.nq != model.nv:
+            raise ConfigError("urdf", str(path), "an arm of revolute or prismatic joints only")
+        flange_id = model.getFrameId(flange_frame)
+        flange = model.frames[flange_id]
+        placement = flange.placement * (tool or Tool()).placement()
+        if model.existFrame(PEG_FRAME):
+            own = model.frames[model.getFrameId(PEG_FRAME)]
+            if own.parentJoint != flange.parentJoint:
+                raise ConfigError(
+                    "urdf", str(path), f"its '{PEG_FRAME}' frame on the same link as the flange"
+                )
+            if tool is None:  # keep the URDF's own tool frame
+                placement = own.placement
+            model.frames[model.getFrameId(PEG_FRAME)].placement = placement
+        else:
+            model.addFrame(
+                pin.Frame(
+                    PEG_FRAME, flange.parentJoint, flange_id, placement, pin.FrameType.OP_FRAME
+                )
+            )
+        self.model = model
+        self.data = model.createData()
+        self.flange_frame = flange_frame
+        self.flange_id = flange_id
+        self.peg_id = model.getFrameId(PEG_FRAME)
+        self.joint_names: tuple[str, ...] = tuple(_joint_names(model))
+        self.lower = np.array(model.lowerPositionLimit, dtype=float)
+        self.upper = np.array(model.upperPositionLimit, dtype=float)
+        self.velocity_limit = np.array(model.velocityLimit, dtype=float)
+        self.home = np.zeros(model.nq)
+        self._peg_in_flange = flange.placement.actInv(model.frames[self.peg_id].placement)
+        self._flange_in_peg = self._peg_in_flange.inverse()
+
+    @classmethod
+    def from_name(cls, robot: str, tool: Tool | None = None) -> RobotModel:
+        """One of :data:`ROBOTS`, with its home configuration set."""
+        if robot not in ROBOTS:
+            raise ConfigError("robot", robot, f"one of {sorted(ROBOTS)}")
+        spec = ROBOTS[robot]()
+        model = cls(spec.urdf, spec.flange_frame, tool, spec.locked_joints, name=robot)
+        model.home = model.check_joints(spec.home, "home")
+        return model
+
+    @property
+    def nq(self) -> int:
+        return int(self.model.nq)
+
+    def check_joints(self, q: ArrayLike, field: str = "q") -> FloatArray:
+        """``q`` as a float array after checking its length and finiteness (not the limits)."""
+        arr = np.asarray(q, dtype=float)
+        if arr.shape != (self.nq,) or not np.isfinite(arr).all():
+            raise InputError(
+                field, q, f"{self.nq} finite joint values of {self.name} {list(self.joint_names)}"
+            )
+        return arr
+
+    def within_limits(self, q: FloatArray) -> bool:
+        # on floats: a third of the time of numpy's comparisons for seven joints
+        limits = zip(self.lower.tolist(), q.tolist(), self.upper.tolist(), strict=True)
+        return all(lo <= v <= hi for lo, v, hi in limits)
+
+    def peg_in_base(self, q: ArrayLike) -> pin.SE3:
+        """FK: pose of the peg frame in the base frame, ``T_base_P``."""
+        return self._frame_in_base(self.check_joints(q), self.peg_id)
+
+    def flange_in_base(self, q: ArrayLike) -> pin.SE3:
+        """FK: pose of the flange frame in the base frame, ``T_base_F``."""
+        return self._frame_in_base(self.check_joints(q), self.flange_id)
+
+    def _frame_in_base(self, q: FloatArray, frame_id: int) -> pin.SE3:
+        pin.forwardKinematics(self.model, self.data, q)
+        return pin.updateFramePlacement(self.model, self.data, frame_id).copy()
+
+    def peg_in_flange(self) -> pin.SE3:
+        """The tool placement ``T_F_P`` (constant)."""
+        return self._peg_in_flange.copy()
+
+    def add_frame(self, name: str, in_flange: pin.SE3) -> None:
+        """Adds (or moves) a frame fixed to the flange, e.g. a wrist sensor's measuring frame."""
+        if name in (PEG_FRAME, self.flange_frame):
+            raise ConfigError("frame", name, f"a name other than '{PEG_FRAME}' and the flange's")
+        flange = self.model.frames[self.flange_id]
+        placement = flange.placement * in_flange
+        if self.model.existFrame(name):
+            self.model.frames[self.model.getFrameId(name)].placement = placement
+        else:
+            self.model.addFrame(
+                pin.Frame(
+                    name, flange.parentJoint, self.flange_id, placement, pin.FrameType.OP_FRAME
+                )
+            )
+            self.data = self.model.createData()
+
+    def frame_id(self, frame: str) -> int:
+        if not self.model.existFrame(frame):
+            frames = [f.name for f in self.model.frames if f.type != pin.FrameType.JOINT]
+            raise ConfigError("frame", frame, f"a frame of {self.name}: {frames}")
+        return int(self.model.getFrameId(frame))
+
+    def frame_in_base(self, q: ArrayLike, frame: str) -> pin.SE3:
+        """FK of any frame of the model, ``T_base_frame``."""
+        return self._frame_in_base(self.check_joints(q), self.frame_id(frame))
+
+    def frame_motion(
+        self, q: ArrayLike, dq: ArrayLike, ddq: ArrayLike, frame: str
+    ) -> tuple[pin.SE3, pin.Motion, pin.Motion]:
+        """Pose ``T_base_frame``, velocity and classical acceleration of a frame's origin.
+
+        The velocity ``(v, omega)`` and the acceleration ``(a, omega_dot)`` are in the frame's
+        own axes (Pinocchio's LOCAL); ``a`` is the classical (not spatial) acceleration of the
+        origin, the one an accelerometer there would read, less gravity.
+        """
+        fid = self.frame_id(frame)
+        q_, dq_, ddq_ = (self.check_joints(x, f) for x, f in ((q, "q"), (dq, "dq"), (ddq, "ddq")))
+        pin.forwardKinematics(self.model, self.data, q_, dq_, ddq_)
+        placement = pin.updateFramePlacement(self.model, self.data, fid).copy()
+        velocity = pin.getFrameVelocity(self.model, self.data, fid, pin.LOCAL)
+        accel = pin.getFrameClassicalAcceleration(self.model, self.data, fid, pin.LOCAL)
+        return placement, velocity, accel
+
+    def jacobian(self, q: ArrayLike, frame: str = PEG_FRAME) -> FloatArray:
+        """Frame Jacobian, (6, nq): ``(v, omega)`` of the frame's origin, both in base axes
+        (Pinocchio's LOCAL_WORLD_ALIGNED)."""
+        arr = self.check_joints(q)
+        fid = self.frame_id(frame)
+        pin.computeJointJacobians(self.model, self.data, arr)
+        pin.updateFramePlacements(self.model, self.data)
+        return np.array(pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED))
+
+
+def _joint_names(model: pin.Model) -> list[str]:
+    return [str(n) for n in list(model.names)[1:]]
+
+
+def pose(xyz: ArrayLike, rpy: ArrayLike = (0.0, 0.0, 0.0)) -> pin.SE3:
+    """An SE3 from a position [m] and roll-pitch-yaw [rad] (URDF convention)."""
+    return pin.SE3(pin.rpy.rpyToMatrix(*np.asarray(rpy, dtype=float)), np.asarray(xyz, float))
