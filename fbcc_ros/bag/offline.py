@@ -32,17 +32,16 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 import yaml
-from numpy.typing import NDArray
 
 from fbcc_ros.bag.reader import Bag
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.features import features_from_pose
+from fbcc_ros.core.control.phase import Phase
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.pipeline import compensation, controller, kinematics
 from fbcc_ros.pipeline.parameters import flatten, resolve
 from fbcc_ros.ros.cdr import decode_wrench
 from fbcc_ros.ros.convert import joints_from_cdr, pose_from_cdr, stamp_to_seconds, wrench_from_cdr
-
-FloatArray = NDArray[np.float64]
 
 #: The file ``fbcc_bringup`` writes beside the bag's .mcap: each cell node's parameters.
 PARAMS_FILE = "fbcc_params.yaml"
@@ -164,7 +163,7 @@ def replay_offline(bag: Bag, given: dict[str, dict[str, Any]]) -> OfflineResult:
             if key not in flow.commands:
                 counts["dropped_by_controller"] += 1
                 continue
-        if ctrl.sup.phase == "idle":
+        if ctrl.sup.phase == Phase.IDLE:
             ctrl.sup.start(stamp)
         command = ctrl.wrench(stamp, stamp, out.wrench)
         if command is None:

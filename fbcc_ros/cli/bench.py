@@ -138,7 +138,8 @@ def bench_controller(steps: int) -> dict[str, tuple[float, float]]:
     """Median and p99 [µs] of one controller period (the supervisor around the law, as the
     fbcc_controller node calls it) along a simulated assembly's measured responses and poses:
     the robust law (identification, guard and scheduling on) and Table I's label 3."""
-    from fbcc_ros.core.control.laws import ComplianceParams, make_law
+    from fbcc_ros.core.control.compliance import ComplianceParams
+    from fbcc_ros.core.control.laws import make_law
     from fbcc_ros.core.control.supervisor import SafetyLimits, Supervisor
 
     sc = validate(paper_scenario("interference"))

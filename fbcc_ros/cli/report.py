@@ -148,7 +148,7 @@ def summarise(bag: Bag, s: Session, nominal: PegHole) -> dict[str, Any]:
 def draw_states(s: Session, nominal: PegHole, path: Path) -> Path:
     """The contact state of each plane and the controller's phase against time."""
     from fbcc_ros.core.contact.segmentation import STATES, response_state
-    from fbcc_ros.core.control.supervisor import PHASES
+    from fbcc_ros.core.control.phase import Phase
 
     xoz, yoz = response_state(s.response, s.features[:, 2], nominal)
     fig, axes = plt.subplots(3, 1, figsize=(12, 6.5), sharex=True,
@@ -161,7 +161,8 @@ def draw_states(s: Session, nominal: PegHole, path: Path) -> Path:
     names = [p.split(":")[0] for _, p in s.phases]
     for (t, _), (t_next, _), name in zip(s.phases, [*s.phases[1:], (s.t[-1], "")], names,
                                          strict=True):  # fmt: skip
-        axes[2].axvspan(t, t_next, alpha=0.3, color=f"C{PHASES.index(name) % 10}")
+        colour = [p.value for p in Phase].index(name) if name in set(Phase) else len(Phase)
+        axes[2].axvspan(t, t_next, alpha=0.3, color=f"C{colour % 10}")
         axes[2].text(t, 0.5, f" {name}", va="center", fontsize=8)
     axes[2].set_yticks([])
     axes[2].set_ylabel("phase")

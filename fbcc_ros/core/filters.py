@@ -14,11 +14,10 @@ import math
 import numba
 import numpy as np
 import scipy.linalg
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.errors import ConfigError
-
-FloatArray = NDArray[np.float64]
 
 
 class LowPass:
@@ -66,7 +65,7 @@ def dead_band(x: ArrayLike, band: ArrayLike) -> FloatArray:
 @numba.njit(cache=True)  # type: ignore[misc]
 def second_order_row(c: FloatArray, x: FloatArray, v: FloatArray, u: FloatArray) -> None:
     """One trial's five second-order filters, in place, discretised exactly for a zero-order
-    hold (``control.ComplianceFilter.discretise``,
+    hold (``compliance.ComplianceFilter.discretise``,
     ``robust_params.RobustParams.filter_coefficients``):
     ``[x, v](k+1) = Phi [x, v](k) + Gamma u(k)``, c rows Phi00, Phi01, Phi10, Phi11, Gamma0,
     Gamma1 per column."""

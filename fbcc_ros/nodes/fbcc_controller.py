@@ -24,6 +24,7 @@ from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import Trigger
 
 from fbcc_ros.core.control.identification import ESTIMATE_FIELDS
+from fbcc_ros.core.control.phase import Phase
 from fbcc_ros.core.errors import FbccError
 from fbcc_ros.pipeline.controller import TABLE, ControllerStage
 from fbcc_ros.ros import topics
@@ -63,7 +64,8 @@ class FbccControllerNode(Node):
         publish_diagnostics(self, self._report)
 
     def _report(self) -> tuple[bytes, str, dict[str, Any]]:
-        level = {"fault": ERROR, "force_limit": WARN, "aborted": WARN}.get(self.sup.phase, OK)
+        levels = {Phase.FAULT: ERROR, Phase.FORCE_LIMIT: WARN, Phase.ABORTED: WARN}
+        level = levels.get(self.sup.phase, OK)
         rate = self.stage.input_rate
         values = {"phase": self.sup.phase, "reason": self.sup.reason,
                   "contact_state": self._state_said, "input_rate_hz": rate.measured_hz,
@@ -141,7 +143,7 @@ class FbccControllerNode(Node):
             self._phase_said = said
             self.pub_phase.publish(String(data=said))
             # one call site per severity: rclpy refuses a site that changes severity
-            if self.sup.phase == "fault":
+            if self.sup.phase == Phase.FAULT:
                 self.get_logger().error(f"phase {said}")
             else:
                 self.get_logger().info(f"phase {said}")

@@ -12,21 +12,20 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import pinocchio as pin
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.compensation.wrench import response_from_wrench
 from fbcc_ros.core.contact.features import features_from_pose, pose_from_features
 from fbcc_ros.core.contact.segmentation import response_state
 from fbcc_ros.core.control.laws import make_law
+from fbcc_ros.core.control.phase import Phase
 from fbcc_ros.core.control.robust import RobustFbcc
 from fbcc_ros.core.control.supervisor import SafetyLimits, Supervisor
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.pipeline.parameters import Param
 from fbcc_ros.pipeline.rate import InputRate
-
-FloatArray = NDArray[np.float64]
 
 _LIMITS = SafetyLimits()
 TABLE = (
@@ -87,7 +86,7 @@ class ControllerStage:
     @property
     def ready_to_start(self) -> bool:
         """With ``auto_start``: idle, and features have come."""
-        return self.auto_start and self.sup.phase == "idle" and self.sup.features is not None
+        return self.auto_start and self.sup.phase == Phase.IDLE and self.sup.features is not None
 
     def features(self, now: float, peg_in_hole: pin.SE3 | None) -> None:
         """The peg's measured pose in {H} (None: unreadable, a fault while inserting).

@@ -12,14 +12,13 @@ from typing import Any
 
 import numpy as np
 import pinocchio as pin
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.kinematics.cell import CellKinematics, TcpCommand, aligned_hole_at
 from fbcc_ros.core.kinematics.robot import RobotModel, Tool
 from fbcc_ros.core.kinematics.robot import pose as pose_of
 from fbcc_ros.pipeline.parameters import Param
-
-FloatArray = NDArray[np.float64]
 
 #: The arm, its tool and where the hole is: shared by the stages that need kinematics.
 CELL = (

@@ -13,12 +13,10 @@ from functools import lru_cache
 
 import numpy as np
 import pinocchio as pin
-from numpy.typing import NDArray
 
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.errors import InputError
 from fbcc_ros.ros import cdr
-
-FloatArray = NDArray[np.float64]
 
 
 def stamp_to_seconds(stamp: cdr.Stamp) -> float:

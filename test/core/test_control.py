@@ -10,14 +10,8 @@ import pytest
 
 from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.contact.segmentation import apply_direction, direction_matrix
-from fbcc_ros.core.control.laws import (
-    AdmittanceController,
-    ComplianceFilter,
-    ComplianceParams,
-    FbccController,
-    Insertion,
-    make_law,
-)
+from fbcc_ros.core.control.compliance import ComplianceFilter, ComplianceParams
+from fbcc_ros.core.control.laws import AdmittanceController, FbccController, Insertion, make_law
 from fbcc_ros.core.errors import ConfigError, InputError
 
 DT = 1e-3

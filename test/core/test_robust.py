@@ -16,8 +16,9 @@ from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.contact.segmentation import apply_direction
 from fbcc_ros.core.control import identification as ident
 from fbcc_ros.core.control import robust_kernel
+from fbcc_ros.core.control.compliance import ComplianceParams
 from fbcc_ros.core.control.guard import GuardParams, OscillationGuard
-from fbcc_ros.core.control.laws import ComplianceParams, make_law, params_from_mapping
+from fbcc_ros.core.control.laws import make_law, params_from_mapping
 from fbcc_ros.core.control.loop_design import (
     depth_phase_margin,
     design,

@@ -12,7 +12,8 @@ import pytest
 
 from fbcc_ros.cli.common import paper_scenario
 from fbcc_ros.core.compensation.compensator import Compensator, SensorSetup
-from fbcc_ros.core.control.laws import ComplianceParams, make_law
+from fbcc_ros.core.control.compliance import ComplianceParams
+from fbcc_ros.core.control.laws import make_law
 from fbcc_ros.core.control.supervisor import SafetyLimits, Supervisor
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.kinematics.cell import aligned_hole_at
@@ -133,7 +134,7 @@ def test_compiled_kernels_are_loaded_before_the_loop() -> None:
     so no other test has loaded them already."""
     code = """if True:
         from fbcc_ros.cli.common import paper_scenario
-        from fbcc_ros.core.contact import model as contact
+        from fbcc_ros.core.contact import kernel as contact
         from fbcc_ros.core.control import laws as control
         from fbcc_ros.core.control import robust_kernel
         from fbcc_ros.core.kinematics import ik
@@ -142,7 +143,7 @@ def test_compiled_kernels_are_loaded_before_the_loop() -> None:
         from fbcc_ros.core.sim import scenario
         from fbcc_ros.core.sim.mock_cell import MockCell
         sc = scenario.validate(paper_scenario("interference", "fbcc"))
-        kernels = (control._law_rows, robust_kernel.robust_rows, contact._response_kernel,
+        kernels = (control._law_rows, robust_kernel.robust_rows, contact.response_kernel,
                    ik._dls_update)
         assert not any(k.signatures for k in kernels)
         control.make_law("fbcc", sc.geometry, sc.params, sc.insertion)

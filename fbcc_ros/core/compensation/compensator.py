@@ -37,8 +37,9 @@ from typing import Any, Literal
 import numpy as np
 import pinocchio as pin
 import yaml
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.compensation.payload import (
     GRAVITY_BASE,
     Calibration,
@@ -52,8 +53,6 @@ from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.filters import LowPass, dead_band
 from fbcc_ros.core.kinematics.robot import RobotModel
-
-FloatArray = NDArray[np.float64]
 
 Placement = Literal["under_hole", "wrist"]
 PLACEMENTS = ("under_hole", "wrist")

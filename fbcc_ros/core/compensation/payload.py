@@ -24,12 +24,11 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.kinematics.spatial import cross, skew
-
-FloatArray = NDArray[np.float64]
 
 #: Standard gravity in a z-up base frame [m/s²].
 GRAVITY_BASE = np.array([0.0, 0.0, -9.80665])

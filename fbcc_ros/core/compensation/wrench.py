@@ -13,11 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 import pinocchio as pin
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.errors import ConfigError, InputError
-
-FloatArray = NDArray[np.float64]
 
 
 def transfer(

@@ -42,11 +42,10 @@ import math
 
 import numba
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.errors import InputError
-
-FloatArray = NDArray[np.float64]
 
 #: Orientation of {P} in {H} when the peg is aligned with the hole, at zero spin.
 R_ALIGNED = np.diag([1.0, -1.0, -1.0])

@@ -20,7 +20,8 @@ import math
 
 import numpy as np
 
-from fbcc_ros.core.contact.model import FloatArray, PegHole
+from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.contact.segmentation import STATES, feature_state, response_state
 
 #: Measured diameters of Table II [mm]: (peg, hole) per group.

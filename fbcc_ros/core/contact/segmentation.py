@@ -32,7 +32,8 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fbcc_ros.core.contact.model import FloatArray, PegHole, as_rows
+from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.contact.model import PegHole, as_rows
 from fbcc_ros.core.errors import ConfigError, InputError
 
 #: The nine states of one plane, in the order of Fig. 4.

@@ -48,7 +48,8 @@ import math
 import numba
 import numpy as np
 
-from fbcc_ros.core.contact.features import FloatArray, in_deviated_hole
+from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.contact.features import in_deviated_hole
 
 #: Time constant of the hole-axis estimate [s]: slow against the dither (300-400 rad/s at
 #: 1 kHz), fast against an insertion (2 s).

@@ -25,7 +25,7 @@ import math
 import numba
 import numpy as np
 
-from fbcc_ros.core.contact.model import FloatArray
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.errors import ConfigError
 
 #: Columns of one signal's guard state: last sign, current half-wave peak, previous peak,

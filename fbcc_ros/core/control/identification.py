@@ -57,7 +57,7 @@ import math
 import numba
 import numpy as np
 
-from fbcc_ros.core.contact.model import FloatArray
+from fbcc_ros.core.arrays import FloatArray
 
 #: The controlled rows of A(l) F: features dx, dy, theta_x, theta_y (indices into 5-vectors).
 ROWS = (0, 1, 3, 4)

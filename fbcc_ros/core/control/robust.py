@@ -92,11 +92,13 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike
 
-from fbcc_ros.core.contact.model import FloatArray, PegHole, as_rows
+from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.contact.model import PegHole, as_rows
 from fbcc_ros.core.control import guard as guard_mod
 from fbcc_ros.core.control import identification as ident
 from fbcc_ros.core.control import robust_kernel as rk
 from fbcc_ros.core.control.axis_insertion import AxisInsertion
+from fbcc_ros.core.control.phase import Phase
 from fbcc_ros.core.control.robust_params import RobustParams
 from fbcc_ros.core.errors import InputError
 
@@ -168,16 +170,16 @@ class RobustFbcc:
         command = self.axis.command(self._command)
         return command[0] if self._single else command
 
-    def phase_of(self, trial: int) -> str:
+    def phase_of(self, trial: int) -> Phase:
         """``inserting``, ``inserted`` (the depth command reached the depth) or
         ``force_limit``."""
         m = self._main[trial]
         if m[rk.C_STOPPED]:
-            return "force_limit"
-        return "inserted" if m[rk.C_LCMD] >= self.insertion.depth else "inserting"
+            return Phase.FORCE_LIMIT
+        return Phase.INSERTED if m[rk.C_LCMD] >= self.insertion.depth else Phase.INSERTING
 
     @property
-    def phase(self) -> list[str]:
+    def phase(self) -> list[Phase]:
         return [self.phase_of(i) for i in range(len(self._command))]
 
     @property

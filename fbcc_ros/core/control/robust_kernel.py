@@ -10,7 +10,8 @@ from typing import Any
 import numba
 import numpy as np
 
-from fbcc_ros.core.contact.model import FloatArray, PegHole
+from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.contact.segmentation import direct_row
 from fbcc_ros.core.control import guard as guard_mod
 from fbcc_ros.core.control import identification as ident

@@ -12,7 +12,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from fbcc_ros.core.contact.model import FloatArray
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.control import guard as guard_mod
 from fbcc_ros.core.errors import ConfigError, InputError, require_number
 from fbcc_ros.core.filters import second_order_coefficients
@@ -98,7 +98,7 @@ class RobustParams:
             alone cannot drive a row by more.
         F_ext_limit: Force limit [N] on |(Fx, Fy, Fz)|: the insertion stops for good above it
             (Algorithm 1's loop condition), as in
-            :class:`fbcc_ros.core.control.laws.ComplianceParams`.
+            :class:`fbcc_ros.core.control.compliance.ComplianceParams`.
     """
 
     bandwidth: float = 30.0

@@ -1,8 +1,9 @@
 """The controller's phases and safety: what the fbcc_controller node runs, without ROS.
 
-Phases: ``idle`` (nothing commanded) → ``start()`` → ``inserting`` → ``inserted`` (the depth
-ramp reached L; the law keeps adjusting) ; ``force_limit`` (Algorithm 1's stop), ``aborted``
-(``abort()``) and ``fault`` end an insertion and hold the last command.
+Phases (:class:`~fbcc_ros.core.control.phase.Phase`): ``idle`` (nothing commanded) →
+``start()`` → ``inserting`` → ``inserted`` (the depth ramp reached L; the law keeps adjusting);
+``force_limit`` (Algorithm 1's stop), ``aborted`` (``abort()``) and ``fault`` end an insertion
+and hold the last command.
 
 A fault holds the last command and records why:
 
@@ -26,18 +27,15 @@ import dataclasses
 import math
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.control.laws import Law
+from fbcc_ros.core.control.phase import ACTIVE, Phase
 from fbcc_ros.core.errors import ConfigError
-
-FloatArray = NDArray[np.float64]
 
 #: The most control periods one sample may stand for (a longer gap is stepped as this many).
 MAX_PERIODS = 10
-
-PHASES = ("idle", "inserting", "inserted", "force_limit", "aborted", "fault")
-ACTIVE = ("inserting", "inserted")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -87,7 +85,7 @@ class Supervisor:
         self.law = law
         self.dt = dt
         self.limits = limits
-        self.phase = "idle"
+        self.phase = Phase.IDLE
         self.reason = ""
         self.command: FloatArray | None = None
         self.features: FloatArray | None = None
@@ -102,8 +100,8 @@ class Supervisor:
 
     def fault(self, reason: str) -> None:
         """Stop and hold the last command, saying why."""
-        if self.active or self.phase == "idle":
-            self.phase, self.reason = "fault", reason
+        if self.active or self.phase == Phase.IDLE:
+            self.phase, self.reason = Phase.FAULT, reason
 
     def on_features(self, now: float, features: ArrayLike) -> None:
         x = np.asarray(features, dtype=float)
@@ -121,14 +119,14 @@ class Supervisor:
         self.law.reset(self.features)
         self.command = self.features.copy()
         self._t_sample = None
-        self.phase, self.reason = "inserting", ""
+        self.phase, self.reason = Phase.INSERTING, ""
         self._t_wrench = self._t_ran = now
         return True, "insertion started"
 
     def abort(self, reason: str = "abort requested") -> tuple[bool, str]:
         if not self.active:
             return False, f"nothing to abort: {self.phase}"
-        self.phase, self.reason = "aborted", reason
+        self.phase, self.reason = Phase.ABORTED, reason
         return True, "aborted; the last command is held"
 
     def watchdog(self, now: float) -> None:
@@ -182,13 +180,13 @@ class Supervisor:
             return self.command
         x_c = self.law.step(w, self.features, self.period(stamp))
         law_phase = self.law.phase_of(0)
-        if law_phase == "force_limit":
-            self.phase = "force_limit"
+        if law_phase == Phase.FORCE_LIMIT:
+            self.phase = Phase.FORCE_LIMIT
             self.reason = (
                 f"|F| = {np.linalg.norm(w[:3]):.1f} N over the limit "
                 f"{self.law.params.F_ext_limit} N"
             )
-        elif law_phase == "inserted":
-            self.phase = "inserted"
+        elif law_phase == Phase.INSERTED:
+            self.phase = Phase.INSERTED
         self.command = self.limits.clip(self.command, x_c)  # whatever the law asks
         return self.command

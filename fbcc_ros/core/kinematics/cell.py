@@ -16,6 +16,7 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.features import (
     R_ALIGNED,
     features_from_pose,
@@ -26,7 +27,6 @@ from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.kinematics.ik import IkError, IkSettings, checked_start, clik, preload_ik
 from fbcc_ros.core.kinematics.robot import RobotModel
 
-FloatArray = NDArray[np.float64]
 
 class CellKinematics:
     """The feature solution and TCP solution of one cell: a robot, the hole, the peg.

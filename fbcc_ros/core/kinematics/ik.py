@@ -14,10 +14,10 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.errors import FbccError, InputError
 from fbcc_ros.core.kinematics.robot import RobotModel
 
-FloatArray = NDArray[np.float64]
 
 class IkError(FbccError):
     """The IK did not reach its target within the limits. Nothing is commanded.

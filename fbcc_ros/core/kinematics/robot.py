@@ -17,11 +17,10 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.errors import ConfigError, InputError
-
-FloatArray = NDArray[np.float64]
 
 PEG_FRAME = "peg"
 

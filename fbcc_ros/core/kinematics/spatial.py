@@ -7,9 +7,8 @@ compensation calls it several times per 1 kHz sample, so the component formula i
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
 
-FloatArray = NDArray[np.float64]
+from fbcc_ros.core.arrays import FloatArray
 
 
 def cross(a: FloatArray, b: FloatArray) -> FloatArray:

@@ -95,7 +95,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from fbcc_ros.core.contact.model import ContactBatch, FloatArray
+from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.contact.model import ContactBatch
 from fbcc_ros.core.errors import ConfigError, InputError
 
 #: A contact response: features (N, 5) -> wrench on the hole (N, 5), e.g. ContactBatch.response.

@@ -12,8 +12,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from fbcc_ros.core.contact import model as contact_mod
-from fbcc_ros.core.contact.model import FloatArray
+from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.contact import kernel as contact_kernel
 from fbcc_ros.core.sim.holder import BoolArray
 
 #: Forward-difference steps of the Jacobian: u_x, u_y [m], phi_x, phi_y [rad]. Small against the
@@ -40,7 +40,7 @@ def _row_residual(
     fbuf[0, 2] = xr[2]
     fbuf[0, 3] = xr[3] + q[2]
     fbuf[0, 4] = xr[4] + q[3]
-    contact_mod._response_kernel(fbuf, tab, peg_top, ca, sa, gl_x, gl_w, wbuf)
+    contact_kernel.response_kernel(fbuf, tab, peg_top, ca, sa, gl_x, gl_w, wbuf)
     fx, fy, fz, mx, my = wbuf[0, 0], wbuf[0, 1], wbuf[0, 2], wbuf[0, 3], wbuf[0, 4]
     if not peg_top:  # moments from (0, 0, -(L + H)) to the grip point (module doc)
         pl, rad, depth = tab[6, 0], tab[1, 0], tab[4, 0] + tab[5, 0]

@@ -48,8 +48,9 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
-from fbcc_ros.core.contact import model as contact_mod
-from fbcc_ros.core.contact.model import ContactBatch, FloatArray, as_rows
+from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.contact import kernel as contact_kernel
+from fbcc_ros.core.contact.model import ContactBatch, as_rows
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.sim import holder_kernel
 from fbcc_ros.core.sim.holder import (
@@ -212,10 +213,10 @@ class HolderSolver:
         x, w = np.empty((n, 5)), np.empty((n, 5))
         conv = np.empty(n, dtype=np.bool_)
         evals, iters = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
-        ca, sa = contact_mod._angle_table(contact.n_angles)
+        ca, sa = contact_kernel.angle_table(contact.n_angles)
         holder_kernel.solve_rows(
             np.ascontiguousarray(xr), h, q, back, self._jac, self._have, contact.table,
-            contact.peg_top, ca, sa, contact_mod._GL_NODES, contact_mod._GL_WEIGHTS,
+            contact.peg_top, ca, sa, contact_kernel.GL_NODES, contact_kernel.GL_WEIGHTS,
             self._k, self._tol, self.max_iter, holder_kernel.FD_STEP, x, w, conv, evals,
             iters,
         )  # fmt: skip

@@ -25,8 +25,9 @@ import math
 
 import numpy as np
 import pinocchio as pin
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.compensation.compensator import acting_point_of
 from fbcc_ros.core.compensation.payload import Motion, Payload, payload_wrench
 from fbcc_ros.core.compensation.wrench import transfer_matrix, wrench_from_response
@@ -37,8 +38,6 @@ from fbcc_ros.core.kinematics.cell import CellKinematics
 from fbcc_ros.core.kinematics.ik import solve_ik
 from fbcc_ros.core.kinematics.robot import RobotModel
 from fbcc_ros.core.sim.scenario import Scenario
-
-FloatArray = NDArray[np.float64]
 
 #: The hole fixture on the mock sensor: 1.5 kg, its centre of mass 2 cm above the sensor.
 DEFAULT_FIXTURE = Payload(1.5, (0.0, 0.0, 0.02))

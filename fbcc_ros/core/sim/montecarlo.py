@@ -28,8 +28,9 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.mapping_study import perturbed
-from fbcc_ros.core.contact.model import FloatArray, PegHole
+from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim.parallel import run_tasks
 from fbcc_ros.core.sim.scenario import Scenario

@@ -39,7 +39,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from fbcc_ros.core.contact.model import FloatArray, PegHole
+from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.control.laws import LAWS, Insertion, Params, params_from_mapping
 from fbcc_ros.core.errors import ConfigError, closest
 from fbcc_ros.core.sim.holder import Holder

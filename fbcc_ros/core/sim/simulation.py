@@ -64,8 +64,9 @@ from typing import Any
 
 import numpy as np
 
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.features import true_rows
-from fbcc_ros.core.contact.model import FEATURE_NAMES, ContactBatch, FloatArray, PegHole
+from fbcc_ros.core.contact.model import FEATURE_NAMES, ContactBatch, PegHole
 from fbcc_ros.core.contact.segmentation import feature_state
 from fbcc_ros.core.control.laws import make_law
 from fbcc_ros.core.control.supervisor import SafetyLimits
