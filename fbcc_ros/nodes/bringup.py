@@ -28,7 +28,6 @@ from typing import Any
 import numpy as np
 
 from fbcc_ros.bag.writer import check_new_folder
-from fbcc_ros.core.compensation.compensator import acting_point_of
 from fbcc_ros.core.errors import FbccError, InputError
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import score
@@ -94,7 +93,7 @@ def cell_nodes(
     from fbcc_ros.nodes.kinematics import KinematicsNode
     from fbcc_ros.nodes.mock_cell import MockCellNode
 
-    acting = acting_point_of(sc.geometry).tolist()
+    acting = sc.geometry.acting_point_in_hole().tolist()
     return [
         NodeSpec("mock_cell", MockCellNode,
                  {"scenario": path, "draw_geometry": draw_geometry, "seed": seed,

@@ -19,7 +19,6 @@ from fbcc_ros.core.compensation.compensator import (
     SENSOR_FRAME,
     Compensator,
     SensorSetup,
-    acting_point_of,
     calibration_yaml,
     load_calibration,
 )
@@ -33,7 +32,7 @@ from fbcc_ros.core.kinematics.robot import RobotModel, pose
 G = 9.80665
 R = 0.005  # hole radius [m]
 PEGHOLE = PegHole(R, 5.02e-3, 0.010, 0.005, 0.2, 1.8e8)  # L = 10 mm, H = 5 mm
-ACTING = acting_point_of(PEGHOLE)  # (0, 0, -0.015)
+ACTING = PEGHOLE.acting_point_in_hole()  # (0, 0, -0.015)
 BIAS = np.array([1.0, -2.0, 3.0, 0.01, 0.02, -0.03])
 
 # The hand-worked contact of both placements: the peg presses the hole's wall at (R, 0, -5 mm)

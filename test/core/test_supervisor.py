@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import subprocess
 import sys
@@ -234,3 +235,16 @@ def test_the_law_steps_the_time_between_sample_stamps() -> None:
     steps.clear()
     run([None, None, None])
     assert steps == pytest.approx([DT] * 3)
+
+
+def test_the_mock_cell_refuses_a_moving_acting_point() -> None:
+    """``peg_top`` moments are about the peg's top face, which moves with the peg: a sensor
+    under the hole cannot report them as if they were its own, so the mock refuses them and
+    says why (the simulator takes them)."""
+    sc = scenario.load("config/scenarios/fig9_interference.yaml")
+    robot = RobotModel.from_name("iiwa14")
+    hole = aligned_hole_at(robot.peg_in_base(robot.home))
+    np.testing.assert_allclose(sc.geometry.acting_point_in_hole(), [0, 0, -0.015])
+    moving = dataclasses.replace(sc, geometry=sc.geometry.replace(acting_point="peg_top"))
+    with pytest.raises(ConfigError, match=r"peg_top.*moves with the peg"):
+        MockCell(moving, robot, hole)

@@ -49,7 +49,6 @@ from fbcc_ros.core.compensation.payload import (
     subtract,
 )
 from fbcc_ros.core.compensation.wrench import response_from_wrench, transfer_matrix, virtual_wrench
-from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.filters import LowPass, dead_band
 from fbcc_ros.core.kinematics.robot import RobotModel
@@ -64,12 +63,6 @@ SENSOR_FRAME = "fbcc_sensor"
 NODE_NAME = "dynamic_compensation"
 
 
-def acting_point_of(peghole: PegHole) -> FloatArray:
-    """The equivalent acting point of eq. (12)-(13) in {H}: the centre of the hole's lower
-    surface, L + H below the top face."""
-    return np.array([0.0, 0.0, -(peghole.hole_depth + peghole.base_thickness)])
-
-
 @dataclasses.dataclass(frozen=True)
 class SensorSetup:
     """Where the sensor is, what it carries, and how its output is conditioned.
@@ -81,7 +74,7 @@ class SensorSetup:
         pose: The sensor frame {S}: in {H} for ``under_hole``, in the flange frame for ``wrist``.
         hole_in_base: ``T_base_H``; gives the direction of gravity in {S}.
         acting_point: Where the output's moments are taken, in {H} [m]
-            (:func:`acting_point_of` gives the one the boundary mapping assumes).
+            (:meth:`PegHole.acting_point_in_hole` gives the one the boundary mapping assumes).
         payload: What the sensor carries between itself and the contact.
         bias: Sensor offset ``(fx, fy, fz, tx, ty, tz)`` in {S} [N, N m].
         lowpass_hz: Cut-off of the output low-pass [Hz]; 0 is off.

@@ -193,6 +193,19 @@ class PegHole:
         """``"clearance"`` when r < R, else ``"interference"`` (r == R counts as interference)."""
         return "clearance" if self.peg_radius < self.hole_radius else "interference"
 
+    def acting_point_in_hole(self) -> FloatArray:
+        """Where the response's moments are taken, in {H} [m]: for ``"hole_bottom"`` the centre
+        of the hole's lower surface, ``(0, 0, -(L + H))`` (eq. 12-13). The one definition the
+        compensation, the mock cell and the bringup use. ``"peg_top"`` moves with the peg, so
+        it has no fixed point in {H}: refused, naming the cause (the ROS cell's compensation
+        gives moments about a point fixed in {H}; the simulator takes ``"peg_top"``)."""
+        if self.acting_point != "hole_bottom":
+            raise ConfigError("geometry.acting_point", self.acting_point, "'hole_bottom' here: "
+                              "'peg_top' moves with the peg, and the ROS cell's compensation "
+                              "gives moments about a point fixed in {H} (the simulator takes "
+                              "'peg_top')")  # fmt: skip
+        return np.array([0.0, 0.0, -(self.hole_depth + self.base_thickness)])
+
     def replace(self, **changes: object) -> PegHole:
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)  # type: ignore[arg-type]

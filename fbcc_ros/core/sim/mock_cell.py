@@ -28,7 +28,6 @@ import pinocchio as pin
 from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
-from fbcc_ros.core.compensation.compensator import acting_point_of
 from fbcc_ros.core.compensation.payload import Motion, Payload, payload_wrench
 from fbcc_ros.core.compensation.wrench import transfer_matrix, wrench_from_response
 from fbcc_ros.core.contact.features import pose_from_features
@@ -100,7 +99,7 @@ class MockCell:
         self.q = solve_ik(robot, self.believed.peg_target(np.zeros(5), 0.0), robot.home).q
         self.q_cmd = self.q.copy()
         self.fixture = fixture
-        self._acting = pin.SE3(np.eye(3), acting_point_of(self.geometry))
+        self._acting = pin.SE3(np.eye(3), self.geometry.acting_point_in_hole())
         self.sensor_in_hole = self._acting  # at the acting point, axes as the true hole's
         # the peg's wrench on the hole at the acting point, read in {S}: T_S_A = T_S_H T_H_A
         self._to_sensor = transfer_matrix(self.sensor_in_hole.actInv(self._acting))
