@@ -198,3 +198,12 @@ def test_each_layer_imports_only_the_layers_below_it(layer: str) -> None:
     wrong = {str(path.relative_to(ROOT)): sorted(_imports(path) - LAYERS[layer])
              for path in sorted((ROOT / "fbcc_ros" / layer).rglob("*.py"))}  # fmt: skip
     assert not {k: v for k, v in wrong.items() if v}, wrong
+
+
+def test_the_tests_mirror_the_package_layout() -> None:
+    """Each test folder is named for the package folder whose modules it tests."""
+    folders = [p for p in (ROOT / "test").rglob("*") if p.is_dir()
+               and not {"__pycache__", "data"} & set(p.relative_to(ROOT).parts)]  # fmt: skip
+    strays = [str(p.relative_to(ROOT)) for p in folders
+              if not (ROOT / "fbcc_ros" / p.relative_to(ROOT / "test")).is_dir()]  # fmt: skip
+    assert not strays, strays

@@ -23,7 +23,7 @@ Quadrature: for each ray alpha the contact interval in s is found exactly (the w
 centre moves linearly in s), and the smooth penetration ``rho - R`` is integrated over that
 interval by Gauss-Legendre. Only the outer integral over alpha is a uniform (periodic) rule.
 The accuracy against a brute-force 2-D quadrature of eq. 9-13 is pinned in
-``test/core/test_contact.py``.
+``test/core/contact/test_model.py``.
 """
 
 from __future__ import annotations

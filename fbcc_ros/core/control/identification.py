@@ -35,7 +35,8 @@ uses is bounded below by a model floor for the softest material the user allows
 time constant: an underestimate raises the loop gain, so the estimate must err stiff.
 
 Model floor, from finite differences of the contact model (eq. 5-13) at k = 1 GPa, both fits,
-depths 1-10 mm (``test/core/test_identification.py`` pins it as a lower bound):
+depths 1-10 mm (``test_the_floor_is_below_the_models_stiffness_in_contact`` pins it as a
+lower bound):
 ``k_offset >= 0.3 k l`` [N/m], ``k_tilt >= 1.5 k l^3`` [N/rad] (the smallest slopes seen over
 random offsets and tilts in contact were 0.38 and 2.4).
 

@@ -16,7 +16,7 @@ from fbcc_ros.core.control.robust_params import RobustParams
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim.scenario import DEFAULT_NOISE, load, validate
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 SCENARIOS = sorted((ROOT / "config" / "scenarios").glob("*.yaml"))
 
 

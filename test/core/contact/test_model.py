@@ -13,7 +13,7 @@ from scipy.optimize import brentq
 from fbcc_ros.cli.common import paper_pair
 from fbcc_ros.core.contact.model import PegHole, lame_stiffness
 from fbcc_ros.core.errors import ConfigError, InputError
-from test.core.reference_contact import reference_response
+from test.core.contact.reference_contact import reference_response
 
 DEG = math.pi / 180
 

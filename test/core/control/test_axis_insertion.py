@@ -11,7 +11,7 @@ import pytest
 
 from fbcc_ros.core.contact.features import pose_from_features
 from fbcc_ros.core.control.axis_insertion import AXIS_TIME_CONSTANT, AxisInsertion
-from test.core.test_features import R, believed
+from test.core.contact.test_features import R, believed
 
 DT = 1e-3
 
