@@ -2,9 +2,14 @@
 process — beside an :class:`~fbcc_ros.harness.observer.Observer`, and accounts the CPU each node
 used. The bringup and the loop benchmark are built on it.
 
-CPU per node: in one process, the thread CPU time spent in each node's callbacks (the rest of
-the process's CPU is the executor, (de)serialisation and DDS, reported as ``executor``); as
-processes, each process's user + system time from ``/proc``.
+In one process the cell's nodes are chained (``chain``, the default): the compensated wrench,
+the features and the command go from node to node as calls within one callback, and are still
+published for the observer, the recorder and anyone else.
+
+CPU per node: in one process, the thread CPU time spent in each node's callbacks, a chained
+callback counted under its own node (the rest of the process's CPU is the executor,
+(de)serialisation and DDS, reported as ``executor``); as processes, each process's user +
+system time from ``/proc``.
 """
 
 from __future__ import annotations
@@ -54,6 +59,7 @@ class CellRun:
         processes: bool = False,
         probe: bool = False,
         log_dir: Path | None = None,
+        chain: bool = True,
     ) -> None:
         import rclpy
         from rclpy.experimental import EventsExecutor
@@ -69,6 +75,9 @@ class CellRun:
         self.nodes: dict[str, Any] = {}
         self.procs: dict[str, subprocess.Popen[bytes]] = {}
         self._callback_cpu: dict[str, int] = {}
+        self._nested: list[int] = []
+        #: the links made by :meth:`_chain` ("upstream -> downstream")
+        self.chained: list[str] = []
         self._time_callbacks("observer", self.observer)
         self.executor.add_node(self.observer)
         # the spawned nodes' output, for the message if one dies
@@ -81,6 +90,8 @@ class CellRun:
                     self._spawn(spec)
                 else:
                     self._construct(spec)
+            if chain:
+                self._chain()
             freeze_heap()
         except BaseException:
             self.close()
@@ -99,16 +110,41 @@ class CellRun:
         """Wraps every callback of ``node`` to sum its thread CPU time under ``name``."""
         self._callback_cpu[name] = 0
         for entity in (*node.subscriptions, *node.timers, *node.services):
-            inner = entity.callback
+            entity.callback = self._timed(name, entity.callback)
 
-            def timed(*args: Any, _inner: Any = inner) -> Any:
-                t0 = time.thread_time_ns()
-                try:
-                    return _inner(*args)
-                finally:
-                    self._callback_cpu[name] += time.thread_time_ns() - t0
+    def _timed(self, name: str, inner: Callable[..., Any]) -> Callable[..., Any]:
+        """``inner``, its thread CPU time summed under ``name``, less what the callbacks it
+        calls in turn (a chain, :meth:`_chain`) sum under their own names."""
 
-            entity.callback = timed
+        def timed(*args: Any) -> Any:
+            t0 = time.thread_time_ns()
+            self._nested.append(0)
+            try:
+                return inner(*args)
+            finally:
+                elapsed = time.thread_time_ns() - t0
+                self._callback_cpu[name] += elapsed - self._nested.pop()
+                if self._nested:
+                    self._nested[-1] += elapsed
+
+        return timed
+
+    def _chain(self) -> None:
+        """The cell's nodes in this process, chained: each output goes to the node that takes
+        it as a call in the same callback, not through DDS and the executor (that node's
+        subscription to it is removed); it is still published for everyone else."""
+        links = (("dynamic_compensation", "out_compensated", "fbcc_controller", "on_wrench"),
+                 ("kinematics", "out_features", "fbcc_controller", "on_features"),
+                 ("fbcc_controller", "out_command", "kinematics", "on_command"))  # fmt: skip
+        for up_name, outlet, down_name, callback in links:
+            up, down = self.nodes.get(up_name), self.nodes.get(down_name)
+            if up is None or down is None or not (hasattr(up, outlet) and hasattr(down, callback)):
+                continue  # a node of another kind (the benchmark's bare chain)
+            topic = down.resolve_topic_name(getattr(up, outlet).publisher.topic_name)
+            for sub in [s for s in down.subscriptions if s.topic_name == topic]:
+                down.destroy_subscription(sub)
+            getattr(up, outlet).local.append(self._timed(down_name, getattr(down, callback)))
+            self.chained.append(f"{up_name} -> {down_name}")
 
     def _spawn(self, spec: NodeSpec) -> None:
         self.log_dir.mkdir(parents=True, exist_ok=True)

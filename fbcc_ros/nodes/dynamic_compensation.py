@@ -24,6 +24,7 @@ from fbcc_ros.pipeline.compensation import TABLE, CompensationStage
 from fbcc_ros.ros import topics
 from fbcc_ros.ros.convert import efforts_from_cdr, joints_from_cdr, wrench_from_cdr, wrench_to_cdr
 from fbcc_ros.ros.diagnostics import counter_report, publish_diagnostics
+from fbcc_ros.ros.outlet import Outlet
 from fbcc_ros.ros.params import declare, run
 
 __all__ = ["TABLE", "DynamicCompensationNode"]
@@ -34,7 +35,8 @@ class DynamicCompensationNode(Node):
         super().__init__("dynamic_compensation", **kwargs)
         values = declare(self, TABLE, lambda v: self.stage.apply(v))
         self.stage = CompensationStage(values)
-        self.pub = self.create_publisher(WrenchStamped, topics.COMPENSATED_WRENCH, 10)
+        self.out_compensated = Outlet(
+            self.create_publisher(WrenchStamped, topics.COMPENSATED_WRENCH, 10))
         self.pub_bias = self.create_publisher(WrenchStamped, topics.BIAS, topics.PHASE_QOS)
         self._publish_bias(self.get_clock().now().nanoseconds * 1e-9)
         sub = self.create_subscription  # raw: CDR bytes, decoded by fbcc_ros.ros.convert
@@ -94,7 +96,7 @@ class DynamicCompensationNode(Node):
         if self.stage.just_tared:
             self._publish_bias(out.stamp)
             self.get_logger().info(f"tared: bias {np.round(self.stage.comp.bias, 4).tolist()}")
-        self.pub.publish(wrench_to_cdr(out.wrench, topics.HOLE_FRAME, out.stamp))
+        self.out_compensated.publish(wrench_to_cdr(out.wrench, topics.HOLE_FRAME, out.stamp))
 
 
 def main() -> None:

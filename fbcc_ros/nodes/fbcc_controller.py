@@ -31,6 +31,7 @@ from fbcc_ros.ros import topics
 from fbcc_ros.ros.cdr import encode_array
 from fbcc_ros.ros.convert import pose_from_cdr, pose_to_cdr, wrench_from_cdr
 from fbcc_ros.ros.diagnostics import ERROR, OK, WARN, publish_diagnostics
+from fbcc_ros.ros.outlet import Outlet
 from fbcc_ros.ros.params import declare, run
 
 __all__ = ["TABLE", "FbccControllerNode"]
@@ -45,7 +46,7 @@ class FbccControllerNode(Node):
         super().__init__("fbcc_controller", **kwargs)
         self.stage = ControllerStage(declare(self, TABLE, lambda v: self.stage.apply(v)))
         self.sup = self.stage.sup
-        self.pub_command = self.create_publisher(PoseStamped, topics.COMMAND, 10)
+        self.out_command = Outlet(self.create_publisher(PoseStamped, topics.COMMAND, 10))
         self.pub_phase = self.create_publisher(String, topics.PHASE, topics.PHASE_QOS)
         self.pub_state = self.create_publisher(String, topics.CONTACT_STATE, 10)
         self.pub_estimate = self.create_publisher(Float64MultiArray, topics.CONTACT_ESTIMATE, 100)
@@ -105,7 +106,7 @@ class FbccControllerNode(Node):
             self.pub_estimate.publish(encode_array(row, ESTIMATE_LAYOUT))
         if command is not None:
             # stamped with the sample it answers, so latency is traceable down the chain
-            self.pub_command.publish(pose_to_cdr(command, topics.HOLE_FRAME, stamp))
+            self.out_command.publish(pose_to_cdr(command, topics.HOLE_FRAME, stamp))
         # the segmentation costs ~50 µs a period: only for someone listening
         if self.pub_state.get_subscription_count():
             state = self.stage.contact_state()

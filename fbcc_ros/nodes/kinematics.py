@@ -28,6 +28,7 @@ from fbcc_ros.pipeline.kinematics import TABLE, KinematicsStage
 from fbcc_ros.ros import topics
 from fbcc_ros.ros.convert import joints_from_cdr, pose_from_cdr, pose_to_cdr, positions_to_cdr
 from fbcc_ros.ros.diagnostics import counter_report, publish_diagnostics
+from fbcc_ros.ros.outlet import Outlet
 from fbcc_ros.ros.params import declare, run
 
 __all__ = ["TABLE", "KinematicsNode"]
@@ -38,7 +39,7 @@ class KinematicsNode(Node):
         super().__init__("kinematics", **kwargs)
         self.stage = KinematicsStage(declare(self, TABLE))
         self.failures = 0
-        self.pub_features = self.create_publisher(PoseStamped, topics.FEATURES, 10)
+        self.out_features = Outlet(self.create_publisher(PoseStamped, topics.FEATURES, 10))
         self.pub_tcp = self.create_publisher(PoseStamped, topics.TCP_COMMAND, 10)
         self.pub_joints = self.create_publisher(Float64MultiArray, topics.JOINT_COMMAND, 10)
         self.pub_status = self.create_publisher(String, topics.KINEMATICS_STATUS, 10)
@@ -56,7 +57,7 @@ class KinematicsNode(Node):
         except FbccError as exc:
             self.get_logger().warn(f"joint state rejected: {exc}", throttle_duration_sec=1.0)
             return
-        self.pub_features.publish(pose_to_cdr(peg, topics.HOLE_FRAME, stamp))
+        self.out_features.publish(pose_to_cdr(peg, topics.HOLE_FRAME, stamp))
 
     def on_command(self, data: bytes) -> None:
         try:

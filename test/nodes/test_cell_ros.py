@@ -105,6 +105,30 @@ def test_an_assembly_with_each_node_in_its_own_process() -> None:
 
 
 @REALTIME
+def test_in_one_process_the_nodes_are_chained_and_every_topic_is_still_published() -> None:
+    """The compensated wrench, the features and the command go from node to node as calls,
+    not through DDS (the downstream subscriptions are gone), and the observer, another node,
+    still receives each of them as the insertion runs."""
+    path = str(SCENARIO)
+    with CellRun(cell_nodes(path, scenario.load(path), "fbcc")) as run:
+        assert run.chained == ["dynamic_compensation -> fbcc_controller",
+                               "kinematics -> fbcc_controller", "fbcc_controller -> kinematics"]
+        heard = {name: sorted(s.topic_name for s in node.subscriptions)
+                 for name, node in run.nodes.items()}  # fmt: skip
+        assert heard["fbcc_controller"] == ["/fbcc/kinematics_status"], heard
+        assert heard["kinematics"] == ["/joint_states"], heard
+        start_insertion(run, timeout=10.0)
+        before = dict(run.observer.counts)
+        run.spin_for(1.0, lambda _: None)
+        grew = {k: run.observer.counts[k] - before[k] for k in ("compensated", "features",
+                                                                 "commands")}  # fmt: skip
+        assert all(n > 100 for n in grew.values()), grew
+    with CellRun(cell_nodes(path, scenario.load(path), "fbcc"), chain=False) as run:
+        assert run.chained == []
+        assert len(list(run.nodes["fbcc_controller"].subscriptions)) == 3
+
+
+@REALTIME
 def test_abort_through_the_service_holds_the_command() -> None:
     """Over DDS: start, abort mid-insertion through ``fbcc/abort``; the phase says so, the arm
     stops where it was, a second abort and a second start are refused with the reason."""
