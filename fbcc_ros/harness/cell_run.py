@@ -1,6 +1,7 @@
-"""Runs a set of nodes for a while — in this process on one EventsExecutor, or each as its own
-process — beside an :class:`~fbcc_ros.harness.observer.Observer`, and accounts the CPU each node
-used. The bringup and the loop benchmark are built on it.
+"""Runs a set of nodes for a while — in this process on one executor
+(:func:`~fbcc_ros.ros.executor.make_executor`), or each as its own process — beside an
+:class:`~fbcc_ros.harness.observer.Observer`, and accounts the CPU each node used. The bringup
+and the loop benchmark are built on it.
 
 In one process the cell's nodes are chained (``chain``, the default): the compensated wrench,
 the features and the command go from node to node as calls within one callback, and are still
@@ -26,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from fbcc_ros.core.errors import FbccError
+from fbcc_ros.ros.executor import make_executor
 from fbcc_ros.ros.params import freeze_heap
 
 
@@ -62,7 +64,6 @@ class CellRun:
         chain: bool = True,
     ) -> None:
         import rclpy
-        from rclpy.experimental import EventsExecutor
 
         from fbcc_ros.harness.observer import Observer
 
@@ -70,7 +71,7 @@ class CellRun:
         self.processes = processes
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
-        self.executor = EventsExecutor(context=self.context)
+        self.executor = make_executor(self.context)
         self.observer = Observer(probe=probe, context=self.context)
         self.nodes: dict[str, Any] = {}
         self.procs: dict[str, subprocess.Popen[bytes]] = {}

@@ -18,6 +18,7 @@ from rclpy.node import Node
 
 from fbcc_ros.core.errors import FbccError
 from fbcc_ros.pipeline.parameters import Param, unknown_names
+from fbcc_ros.ros.executor import make_executor
 
 #: Parameters rclpy itself gives every node (and its QoS overrides, ``qos_overrides.*``).
 ROS_OWN = ("use_sim_time", "start_type_description_service")
@@ -84,7 +85,8 @@ def declare(
 
 
 def run(node_factory: Callable[[], Node]) -> None:
-    """The ``main()`` of every node (ros2/demos shape), on the EventsExecutor.
+    """The ``main()`` of every node (ros2/demos shape), on the executor
+    :func:`~fbcc_ros.ros.executor.make_executor` chooses (the EventsExecutor by default).
 
     A parameter that is refused at start-up (out of range, not a choice, a failed core check)
     ends the process with exit status 2 and one line naming the value and what is allowed.
@@ -96,7 +98,6 @@ def run(node_factory: Callable[[], Node]) -> None:
 
     import rclpy
     from rclpy.exceptions import ParameterException
-    from rclpy.experimental import EventsExecutor
     from rclpy.signals import SignalHandlerOptions
 
     stop: list[int] = []
@@ -110,7 +111,7 @@ def run(node_factory: Callable[[], Node]) -> None:
         except (FbccError, ParameterException) as exc:
             print(f"{getattr(node_factory, '__name__', 'node')}: {exc}", file=sys.stderr)
             raise SystemExit(2) from None
-        executor = EventsExecutor()
+        executor = make_executor()
         executor.add_node(node)
         freeze_heap()
         while not stop and rclpy.ok():
