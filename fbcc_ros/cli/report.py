@@ -99,7 +99,8 @@ def session(bag: Bag, nominal: PegHole) -> Session:
     t_x, x = poses("/fbcc/features")
     wrenches = [wrench_from_cdr(m.data) for m in bag.of("/ft_sensor/compensated")]
     t = np.array([s for s, _, _ in wrenches])
-    response = np.array([response_from_wrench(w) for _, _, w in wrenches])
+    acting = nominal.acting_point_in_hole()
+    response = np.array([response_from_wrench(w, acting) for _, _, w in wrenches])
     # the features the controller had at each sample: the latest measured at or before it
     order = np.argsort(t_x)
     t_x, x = t_x[order], x[order]

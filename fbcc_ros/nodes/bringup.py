@@ -99,7 +99,7 @@ def cell_nodes(
                  {"scenario": path, "draw_geometry": draw_geometry, "seed": seed,
                   "rate_hz": sc.rate_hz}),
         NodeSpec("dynamic_compensation", DynamicCompensationNode,
-                 {"sensor_xyz": acting, "acting_point": acting, "tare_samples": TARE_SAMPLES}),
+                 {"sensor_xyz": acting, "tare_samples": TARE_SAMPLES}),
         NodeSpec("kinematics", KinematicsNode, {"rate_hz": sc.rate_hz}),
         NodeSpec("fbcc_controller", FbccControllerNode,
                  {"scenario": path, "law": law, "rate_hz": sc.rate_hz,

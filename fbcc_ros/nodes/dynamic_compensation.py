@@ -4,7 +4,7 @@ Subscribes ``ft_sensor/raw`` (WrenchStamped in the sensor frame) and, for a wris
 ``joint_states``; with ``virtual_sensor`` it takes the arm's external joint torques from the
 ``effort`` of ``external_joint_torques`` (JointState) instead of a sensor. Publishes
 ``ft_sensor/compensated``: the wrench the peg exerts on the hole, frame ``hole``, moments about
-the acting point (right-handed; the controller's Fz is its negated z force). The pipeline, the
+its origin (right-handed; the controller's Fz is its negated z force). The pipeline, the
 sign conventions and the calibration file are in ``docs/compensation.md``; rejected samples
 are counted and logged, never published; the counters go to ``/diagnostics`` each second.
 """

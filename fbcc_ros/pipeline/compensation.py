@@ -1,5 +1,7 @@
 """The compensation stage (Fig. 7): a raw sensor reading, or the arm's external joint torques,
-→ the wrench the peg exerts on the hole, in {H}, moments about the acting point.
+→ the wrench the peg exerts on the hole, in {H}, moments about the {H} origin (the ROS
+convention for a wrench in frame ``hole``; the controller moves them to the acting point its
+boundary mapping assumes).
 
 The pipeline, the sign conventions and the calibration file are in ``docs/compensation.md``;
 the core is :class:`~fbcc_ros.core.compensation.compensator.Compensator`. This stage builds it from
@@ -30,8 +32,6 @@ TABLE = (
     Param("sensor_xyz", [0.0, 0.0, -0.015], "sensor frame origin: in {H} (under_hole) or in the "
           "flange frame (wrist)", "m"),
     Param("sensor_rpy", [0.0, 0.0, 0.0], "sensor frame orientation, same parent", "rad"),
-    Param("acting_point", [0.0, 0.0, -0.015], "where the output's moments are taken, in {H}: "
-          "L + H below the top face for the boundary mapping", "m"),
     Param("payload.mass", 0.0, "mass carried by the sensor", "kg", 0.0, 1000.0),
     Param("payload.com", [0.0, 0.0, 0.0], "its centre of mass in the sensor frame", "m"),
     Param("payload.inertia", [0.0] * 9, "its inertia about the centre of mass, row-major",
@@ -60,7 +60,7 @@ def setup_from(values: dict[str, Any], hole: pin.SE3) -> SensorSetup:
         frame=values["sensor_frame"],
         pose=pose(values["sensor_xyz"], values["sensor_rpy"]),
         hole_in_base=hole,
-        acting_point=tuple(values["acting_point"]),  # type: ignore[arg-type]
+        acting_point=(0.0, 0.0, 0.0),  # the {H} origin: the output is a wrench in frame hole
         payload=Payload(
             values["payload.mass"],
             tuple(values["payload.com"]),  # type: ignore[arg-type]

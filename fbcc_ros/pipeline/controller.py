@@ -4,7 +4,8 @@ as the peg's pose in {H}, with the supervisor's phases and safety.
 The law (``fbcc``, the ``admittance`` baseline or ``none``), its gains and the insertion come
 from a scenario file (DESIGN §4: ``geometry`` is the nominal pair, ``controller.params`` the
 gains, ``insertion`` the depth and speed). The features are the peg's pose read with the
-nominal radius; each compensated wrench is one control period of the supervisor
+nominal radius; each compensated wrench (in {H}, moments about its origin, moved here to the
+nominal pair's acting point, ``L + H`` below the top face) is one control period of the supervisor
 (:mod:`fbcc_ros.core.control.supervisor`: a fault holds the last command and says why).
 """
 
@@ -64,6 +65,8 @@ class ControllerStage:
     def __init__(self, values: dict[str, Any]) -> None:
         sc = scenario_io.load(scenario_io.find(values["scenario"]))
         self.nominal = sc.geometry
+        #: where the law's moments are taken (the wrenches come about the {H} origin)
+        self.acting_point = sc.geometry.acting_point_in_hole()
         law = make_law(values["law"], sc.geometry, sc.params, sc.insertion)
         self.sup = Supervisor(law, 1.0 / values["rate_hz"], safety_limits(values))
         self.auto_start = bool(values["auto_start"])
@@ -102,7 +105,7 @@ class ControllerStage:
         """One control period on the compensated wrench sampled at ``stamp``: the command as
         the peg's pose in {H} (the held one outside an insertion; None before the first)."""
         self.input_rate.sample(stamp)
-        self.response = response_from_wrench(wrench)
+        self.response = response_from_wrench(wrench, self.acting_point)
         command = self.sup.on_response(now, self.response, stamp)
         self._periods += 1
         if command is None:

@@ -42,7 +42,8 @@ def test_the_controller_stage_commands_what_the_simulator_commanded(name: str, l
         stage.features(t, pin.SE3(*pose_from_features(pose, radius)))
         if k == 0:
             assert stage.sup.start(t)[0]
-        command = stage.wrench(t, t, wrench_from_response(traj.measured[k, 0]))
+        wrench = wrench_from_response(traj.measured[k, 0], 0.0, stage.acting_point)  # about O
+        command = stage.wrench(t, t, wrench)
         assert command is not None
         commands[k] = features_from_pose(command.rotation, command.translation, radius)
         pose = pose + alpha * (traj.command[k, 0] - pose)  # the simulator's robot

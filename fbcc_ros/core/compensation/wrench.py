@@ -47,16 +47,31 @@ def transfer_matrix(source_in_target: pin.SE3, point: ArrayLike = (0, 0, 0)) -> 
     return at_point.toDualActionMatrix()
 
 
-def response_from_wrench(wrench: ArrayLike) -> FloatArray:
-    """``(Fx, Fy, Fz, Mx, My)`` from a wire wrench in {H}: ``Fz = -fz`` (eq. 11), mz dropped."""
+def response_from_wrench(wrench: ArrayLike, acting_point: ArrayLike | None = None) -> FloatArray:
+    """``(Fx, Fy, Fz, Mx, My)`` from a wire wrench in {H}: ``Fz = -fz`` (eq. 11), mz dropped.
+
+    With ``acting_point`` (in {H} [m]), the wire wrench's moments are about the {H} origin (the
+    ROS convention for a wrench in frame ``hole``) and are moved to that point:
+    ``tau_A = tau_O - p_A x f``."""
     w = np.asarray(wrench, dtype=float)
-    return np.array([w[0], w[1], -w[2], w[3], w[4]])
+    fx, fy, fz, tx, ty = float(w[0]), float(w[1]), float(w[2]), float(w[3]), float(w[4])
+    if acting_point is not None:
+        ax, ay, az = (float(v) for v in np.asarray(acting_point, dtype=float))
+        tx, ty = tx - (ay * fz - az * fy), ty - (az * fx - ax * fz)
+    return np.array([fx, fy, -fz, tx, ty])
 
 
-def wrench_from_response(response: ArrayLike, mz: float = 0.0) -> FloatArray:
-    """The wire wrench in {H} for a response vector: ``fz = -Fz``; the model has no ``mz``."""
+def wrench_from_response(
+    response: ArrayLike, mz: float = 0.0, acting_point: ArrayLike | None = None
+) -> FloatArray:
+    """The wire wrench in {H} for a response vector: ``fz = -Fz``; the model has no ``mz``.
+    With ``acting_point`` (where the response's moments are), the wrench's moments are about the
+    {H} origin: ``tau_O = tau_A + p_A x f`` (the inverse of :func:`response_from_wrench`)."""
     r = np.asarray(response, dtype=float)
-    return np.array([r[0], r[1], -r[2], r[3], r[4], mz])
+    wrench = np.array([r[0], r[1], -r[2], r[3], r[4], mz])
+    if acting_point is not None:
+        wrench[3:] += np.cross(np.asarray(acting_point, dtype=float), wrench[:3])
+    return wrench
 
 
 def virtual_wrench(jacobian: ArrayLike, external_torques: ArrayLike, damping: float) -> FloatArray:

@@ -133,3 +133,21 @@ def test_dead_band_is_continuous_and_zero_inside() -> None:
     # no step at the edge
     edge = dead_band([0.5 + 1e-9, -(0.05 + 1e-9)], band)
     assert np.abs(edge).max() < 2e-9
+
+
+def test_a_wrench_about_the_hole_origin_reads_as_the_response_at_the_acting_point() -> None:
+    """The compensation publishes about the {H} origin; the controller moves the moments to
+    the acting point: the docs' hand-worked contact (10 N along +x and 4 N of friction down at
+    (R, 0, -5 mm), R = 5 mm) about A = (0, 0, -15 mm) has the moment (0, 0.12, 0) N m."""
+    at = np.array([0.005, 0.0, -0.005])
+    f = np.array([10.0, 0.0, -4.0])
+    about_origin = np.r_[f, np.cross(at, f)]
+    acting = np.array([0.0, 0.0, -0.015])
+    response = response_from_wrench(about_origin, acting)
+    np.testing.assert_allclose(response, [10.0, 0.0, 4.0, 0.0, 0.12], atol=1e-12)
+    np.testing.assert_allclose(response[3:], np.cross(at - acting, f)[:2], atol=1e-15)
+    # about the origin (no point given): the moment of the same contact there
+    np.testing.assert_allclose(response_from_wrench(about_origin)[3:], np.cross(at, f)[:2])
+    # and back: the wire wrench about the origin of the response at the acting point
+    back = wrench_from_response(response, about_origin[5], acting)
+    np.testing.assert_allclose(back, about_origin, atol=1e-15)
