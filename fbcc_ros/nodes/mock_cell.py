@@ -38,9 +38,11 @@ from fbcc_ros.ros.params import declare, run
 TABLE = (
     Param("scenario", "config/scenarios/bringup_interference.yaml", "scenario YAML: the true "
           "deviation of the hole (initial), the sensor noise and bias, the robot lag"),
-    Param("rate_hz", 1000.0, "joint state and sensor rate", "Hz", 1.0, 10000.0),
+    Param("rate_hz", 0.0, "joint state and sensor rate; 0: the scenario's rate_hz", "Hz", 0.0,
+          10000.0),
     Param("draw_geometry", False, "draw the true radii from Table II's tolerances"),
-    Param("seed", 0, "seed of the noise and of the drawn geometry", "", 0, 2**31 - 1),
+    Param("seed", -1, "seed of the noise and of the drawn geometry; -1: the scenario's seed", "",
+          -1, 2**31 - 1),
     Param("sensor_frame", "ft_sensor", "frame_id of the raw readings"),
     Param("fixture_mass", 1.5, "mass of the hole fixture on the sensor", "kg", 0.0, 100.0),
     *CELL,
@@ -54,12 +56,13 @@ class MockCellNode(Node):
         sc = scenario_io.load(scenario_io.find(values["scenario"]))
         robot, hole = cell_from(values)
         geometry = None
+        seed = sc.seed if values["seed"] < 0 else values["seed"]
         if values["draw_geometry"]:
-            geometry = perturbed(sc.geometry, np.random.default_rng(values["seed"]),
+            geometry = perturbed(sc.geometry, np.random.default_rng(seed),
                                  friction_spread=0.0, stiffness_octaves=0.0)  # fmt: skip
         fixture = Payload(values["fixture_mass"], (0.0, 0.0, 0.02))
-        self.cell = MockCell(sc, robot, hole, geometry, fixture, values["seed"])
-        self.dt = 1.0 / values["rate_hz"]
+        self.cell = MockCell(sc, robot, hole, geometry, fixture, seed)
+        self.dt = 1.0 / (values["rate_hz"] or sc.rate_hz)
         self.frame = values["sensor_frame"]
         self.names = robot.joint_names
         self.counts = {"ticks": 0, "ticks_caught_up": 0, "ticks_skipped": 0,

@@ -24,6 +24,7 @@ from fbcc_ros.core.control.laws import make_law
 from fbcc_ros.core.control.phase import Phase
 from fbcc_ros.core.control.robust import RobustFbcc
 from fbcc_ros.core.control.supervisor import SafetyLimits, Supervisor
+from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.pipeline.parameters import Param
 from fbcc_ros.pipeline.rate import InputRate
@@ -33,9 +34,10 @@ TABLE = (
     Param("scenario", "config/scenarios/bringup_interference.yaml", "scenario YAML with the "
           "nominal geometry, the gains (controller.params) and the insertion; relative paths "
           "are tried from the working directory, then from the package's share directory"),
-    Param("law", "fbcc", "control law", choices=("fbcc", "admittance", "none")),
-    Param("rate_hz", 1000.0, "control rate (one period per compensated wrench)", "Hz", 1.0,
-          10000.0),
+    Param("law", "scenario", "control law; scenario: the scenario's controller.type (the first "
+          "of a list)", choices=("scenario", "fbcc", "admittance", "none")),
+    Param("rate_hz", 0.0, "control rate (one period per compensated wrench); 0: the "
+          "scenario's rate_hz", "Hz", 0.0, 10000.0),
     Param("timeout", _LIMITS.timeout, "stale input fault after this gap", "s", 1e-3, 10.0,
           read_only=False),
     Param("max_step", _LIMITS.max_step, "largest change of dx, dy, l per command", "m", 1e-9,
@@ -67,15 +69,23 @@ class ControllerStage:
         self.nominal = sc.geometry
         #: where the law's moments are taken (the wrenches come about the {H} origin)
         self.acting_point = sc.geometry.acting_point_in_hole()
-        law = make_law(values["law"], sc.geometry, sc.params, sc.insertion)
-        self.sup = Supervisor(law, 1.0 / values["rate_hz"], safety_limits(values))
+        name = sc.laws[0] if values["law"] == "scenario" else values["law"]
+        law = make_law(name, sc.geometry, sc.params, sc.insertion)
+        rate = values["rate_hz"] or sc.rate_hz
+        try:
+            self.sup = Supervisor(law, 1.0 / rate, safety_limits(values))
+        except ConfigError as exc:  # a period too long for the gains: say it as the rate
+            if exc.field != "dt":
+                raise
+            allowed = f"a rate the gains resolve ({exc.allowed})"
+            raise ConfigError("rate_hz", rate, allowed) from None
         self.auto_start = bool(values["auto_start"])
         self.robust = isinstance(law, RobustFbcc)
         #: one contact estimate every this many periods
-        self.estimate_every = max(1, round(values["rate_hz"] / values["estimate_rate_hz"]))
+        self.estimate_every = max(1, round(rate / values["estimate_rate_hz"]))
         self._periods = 0
         self.response: FloatArray | None = None  # the last period's
-        self.input_rate = InputRate(values["rate_hz"], "the compensated wrench")
+        self.input_rate = InputRate(rate, "the compensated wrench")
 
     def apply(self, values: dict[str, Any]) -> None:
         """The runtime parameters (the safety limits); raises ConfigError for bad ones."""

@@ -255,7 +255,7 @@ def test_each_node_starts_as_a_process_with_its_yaml(node: str, tmp_path: Path) 
     ("node", "override", "message"),
     [
         ("fbcc_controller", "law:=pid",
-         "law='pid' is not allowed: expected one of ['fbcc', 'admittance', 'none']"),
+         "law='pid' is not allowed: expected one of ['scenario', 'fbcc', 'admittance', 'none']"),
         ("fbcc_controller", "timeout:=-1.0",
          "Parameter timeout out of range Min: 0.001, Max: 10.0, value: -1.0"),
         ("dynamic_compensation", "virtual_sensor:=true",

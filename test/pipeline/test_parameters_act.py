@@ -56,6 +56,7 @@ CHANGED: dict[str, Any] = {
     "max_step_angle": 1e-9,  # the tilt commands move less than 1e-6 rad a period here
     "timeout": 0.01,  # the features stop for 30 ms (_controller)
     "fbcc_controller.rate_hz": 250.0,
+    "law": "admittance",  # the default scenario's law is fbcc
     "kinematics.rate_hz": 10000.0,  # a 0.5 mm command is then beyond a period's reach
     "estimate_rate_hz": 500.0,
     "payload.inertia": [1e-3, 0, 0, 0, 1e-3, 0, 0, 0, 1e-3],
