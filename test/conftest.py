@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from fbcc_ros.cli.common import paper_pair
 from fbcc_ros.core.contact.model import PegHole
+from fbcc_ros.core.paper import paper_pair
 
 
 @pytest.fixture(params=["clearance", "interference"])

@@ -14,12 +14,12 @@ import time
 
 import numpy as np
 
-from fbcc_ros.cli.common import paper_pair, paper_scenario
 from fbcc_ros.core.compensation.compensator import Compensator, SensorSetup
 from fbcc_ros.core.compensation.payload import Payload
 from fbcc_ros.core.kinematics.cell import CellKinematics, aligned_hole_at, follow
 from fbcc_ros.core.kinematics.ik import solve_ik
 from fbcc_ros.core.kinematics.robot import RobotModel
+from fbcc_ros.core.paper import paper_pair, paper_scenario
 from fbcc_ros.core.sim.montecarlo import draw_trials, run_montecarlo
 from fbcc_ros.core.sim.scenario import validate
 from fbcc_ros.core.sim.simulation import simulate

@@ -21,9 +21,10 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-from fbcc_ros.cli.common import out_dir, paper_pair
+from fbcc_ros.cli.common import out_dir
 from fbcc_ros.core.contact.mapping_study import classify_study
 from fbcc_ros.core.contact.segmentation import STATES
+from fbcc_ros.core.paper import paper_pair
 
 FRICTION_SPREADS = (0.0, 0.1, 0.5)
 CASES = (("off boundary", None), ("dx = 0", "offset"), ("θy = 0", "tilt"), ("dx = θy = 0", "both"))

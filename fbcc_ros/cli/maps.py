@@ -23,7 +23,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import ListedColormap
 
-from fbcc_ros.cli.common import out_dir, paper_pair
+from fbcc_ros.cli.common import out_dir
 from fbcc_ros.core.contact.model import FEATURE_NAMES, RESPONSE_NAMES, PegHole
 from fbcc_ros.core.contact.segmentation import (
     STATES,
@@ -32,6 +32,7 @@ from fbcc_ros.core.contact.segmentation import (
     response_state,
     tilt_boundary_angle,
 )
+from fbcc_ros.core.paper import paper_pair
 
 DEPTHS = (2e-3, 5e-3, 10e-3)
 COLOURS = {

@@ -23,13 +23,7 @@ import numpy as np
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.contact.segmentation import STATES, feature_state, response_state
-
-#: Measured diameters of Table II [mm]: (peg, hole) per group.
-TABLE_II_DIAMETERS_MM = (
-    ((10.037, 10.031, 10.041, 10.035, 10.029), (10.033, 10.031, 10.027, 10.032, 10.031)),
-    ((10.113, 10.056, 10.047, 10.072, 10.097), (10.149, 10.135, 10.145, 10.155, 10.156)),
-    ((10.044, 10.050, 10.043, 10.050, 10.044), (10.021, 10.019, 10.018, 10.011, 10.018)),
-)
+from fbcc_ros.core.paper import TABLE_II_DIAMETERS_MM
 
 
 def radius_spreads() -> FloatArray:

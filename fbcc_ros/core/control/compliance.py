@@ -16,15 +16,7 @@ import scipy.linalg
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.errors import ConfigError, InputError, require_number
 from fbcc_ros.core.filters import second_order_row
-
-#: Table I of the paper: (M_dp, K_dp, M_do, K_do, M_dl, K_dl) per label; D_d = sqrt(M_d K_d).
-TABLE_I: dict[int, tuple[float, float, float, float, float, float]] = {
-    1: (1e5, 1e7, 1e1, 1e3, 1e10, 1e12),
-    2: (1e4, 1e6, 1e0, 1e2, 1e10, 1e12),
-    3: (1e4, 1e6, 1e1, 1e3, 1e10, 1e12),
-    4: (1e4, 1e6, 1e2, 1e4, 1e10, 1e12),
-    5: (1e3, 1e5, 1e-1, 1e1, 1e10, 1e12),
-}
+from fbcc_ros.core.paper import TABLE_I
 
 #: The fastest mode of every filter must satisfy |s| dt <= this (at least ~6 samples per
 #: time constant or natural period / 2 pi), so that the sampled loop follows the continuous law.

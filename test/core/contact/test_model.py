@@ -10,9 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq
 
-from fbcc_ros.cli.common import paper_pair
 from fbcc_ros.core.contact.model import PegHole, lame_stiffness
 from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.paper import paper_pair
 from test.core.contact.reference_contact import reference_response
 
 DEG = math.pi / 180

@@ -9,7 +9,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fbcc_ros.cli.common import paper_pair
 from fbcc_ros.core.contact.mapping_study import classify_study, sample_features
 from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.contact.segmentation import (
@@ -20,6 +19,7 @@ from fbcc_ros.core.contact.segmentation import (
     response_state,
 )
 from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.paper import paper_pair
 
 DEG = math.pi / 180
 HAT_FLIP = {"D": "D^", "D^": "D", "P": "P"}

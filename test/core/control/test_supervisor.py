@@ -11,7 +11,6 @@ import sys
 import numpy as np
 import pytest
 
-from fbcc_ros.cli.common import paper_scenario
 from fbcc_ros.core.compensation.compensator import Compensator, SensorSetup
 from fbcc_ros.core.control.compliance import ComplianceParams
 from fbcc_ros.core.control.laws import make_law
@@ -19,6 +18,7 @@ from fbcc_ros.core.control.supervisor import SafetyLimits, Supervisor
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.kinematics.cell import aligned_hole_at
 from fbcc_ros.core.kinematics.robot import RobotModel
+from fbcc_ros.core.paper import paper_scenario
 from fbcc_ros.core.sim import scenario
 from fbcc_ros.core.sim.mock_cell import MockCell
 from fbcc_ros.core.sim.simulation import simulate
@@ -134,7 +134,7 @@ def test_compiled_kernels_are_loaded_before_the_loop() -> None:
     loop ~8 ms and left ~47k objects for the garbage collector to walk. A fresh interpreter,
     so no other test has loaded them already."""
     code = """if True:
-        from fbcc_ros.cli.common import paper_scenario
+        from fbcc_ros.core.paper import paper_scenario
         from fbcc_ros.core.contact import kernel as contact
         from fbcc_ros.core.control import laws as control
         from fbcc_ros.core.control import robust_kernel

@@ -187,7 +187,7 @@ def test_dask_task_error_and_cluster_survives(scheduler: str) -> None:
 def test_montecarlo_on_the_cluster_equals_the_local_run(scheduler: str) -> None:
     """fbcc-montecarlo's study on a Dask cluster: the same outcomes, trial by trial, as on
     local processes and in this process (the seeds travel with the tasks)."""
-    from fbcc_ros.cli.common import paper_scenario
+    from fbcc_ros.core.paper import paper_scenario
     from fbcc_ros.core.sim.montecarlo import draw_trials, run_montecarlo
     from fbcc_ros.core.sim.scenario import validate
 

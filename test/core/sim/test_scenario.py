@@ -11,9 +11,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from fbcc_ros.cli.common import paper_scenario
 from fbcc_ros.core.control.robust_params import RobustParams
 from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.paper import paper_scenario
 from fbcc_ros.core.sim.scenario import DEFAULT_NOISE, load, validate
 
 ROOT = Path(__file__).resolve().parents[3]

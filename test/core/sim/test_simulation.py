@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from fbcc_ros.cli.common import paper_scenario
 from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.paper import paper_scenario
 from fbcc_ros.core.sim.holder import Holder
 from fbcc_ros.core.sim.montecarlo import draw_trials, replay_trial, run_montecarlo, wilson_interval
 from fbcc_ros.core.sim.scenario import validate
