@@ -36,7 +36,7 @@ C_RFR = 15  # the reference x_rfr (the features at the start)
 C_PREV_X = 20  # measured features of the previous sample
 C_PREV_U = 25  # direction rows of the previous sample
 C_LCMD = 30  # depth command
-C_T = 31  # time since the start [s] (dither phase)
+C_T = 31  # time since the start [s]
 C_HOLD = 32  # time until which the depth holds (guard) [s]
 C_MU = 33  # friction estimate
 C_CONTACT = 34  # 1 when the last sample was contact
@@ -50,7 +50,8 @@ C_REACHED = 47  # 1 once the depth command has reached the depth
 C_NOTCH = 48  # the guard's notches: each row's 2 at its plane's dither frequencies (2 each)
 C_DEPTH_F = 64  # the depth loop's low-pass of each row (x, v)
 C_DNOTCH = 72  # the depth loop's notches, as C_NOTCH
-N_MAIN = 88
+C_SAMPLES = 88  # samples since the start (the dither's phase)
+N_MAIN = 89
 
 # Indices into the parameter vector of the kernel.
 (P_WC, P_DB_X, P_DB_Y, P_DB_TX, P_DB_TY, P_FORGET, P_KMIN, P_RELEASE, P_DITH_F,
@@ -97,7 +98,9 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
     prm[P_BASE], prm[P_PER_DEPTH] = base, per_depth
     prm[P_HOLE_DEPTH], prm[P_HOLE_RADIUS] = nom.hole_depth, nom.hole_radius
     prm[P_DT] = dt
-    prm[P_F0 : P_F3 + 1] = 2 * math.pi * np.array(DITHER_FRACTIONS) / dt  # [rad/s]
+    # the dither's phase advance per sample [rad]: a digital sinusoid whatever the step, so a
+    # late sample (a step of several periods) leaves it clean and its notches exact
+    prm[P_F0 : P_F3 + 1] = 2 * math.pi * np.array(DITHER_FRACTIONS)
     prm[P_SU_X : P_SU_TY + 1] = su
     prm[P_MU0] = nom.friction
     prm[P_COUPLING] = p.coupling_limit
@@ -112,7 +115,7 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
     prm[P_DITH_FADE] = 1.0 - math.exp(-min(DITHER_FRACTIONS))
     for j in range(4):
         prm[P_NOTCH + 3 * j : P_NOTCH + 3 * j + 3] = notch_coefficients(
-            prm[P_F0 + j], NOTCH_QUALITY, dt)  # fmt: skip
+            prm[P_F0 + j] / dt, NOTCH_QUALITY, dt)  # fmt: skip
     prm[P_SETTLE] = p.settle_force
     prm[P_DEPTH_F : P_DEPTH_F + 6] = second_order_coefficients(
         p.depth_filter_frequency, p.filter_damping, dt)  # fmt: skip
@@ -211,6 +214,7 @@ def robust_rows(
                 effort, j_max = abs(fast) / scale, j
         running = m[C_STOPPED] == 0.0
         m[C_T] += dt
+        m[C_SAMPLES] += 1.0
         if running:
             m[C_ELAPSED] += dt
         if not running:
@@ -255,7 +259,7 @@ def robust_rows(
             # faded in and out over about a dither period: switched at an arbitrary phase, it
             # would step the command by up to its amplitude (a tight stiff fit at the depth)
             m[C_DITHER + j] += prm[P_DITH_FADE] * (amp - m[C_DITHER + j])
-            dither = m[C_DITHER + j] * math.sin(prm[P_F0 + j] * m[C_T])
+            dither = m[C_DITHER + j] * math.sin(prm[P_F0 + j] * m[C_SAMPLES])
             # the command leads the measured pose by at most the lateral lead: what a contact
             # of unknown stiffness may be pushed before its force is seen (loop_delay later)
             lead = prm[P_LEAD_X] if j < 2 else prm[P_LEAD_T]

@@ -559,3 +559,29 @@ def test_at_the_depth_only_a_settle_force_moves_the_peg() -> None:
         assert 0 < at_depth < 500
         settled = c[at_depth + 500 :, 0]  # after the dither's fade
         assert (np.ptp(settled) > 1e-9) == moves, (fx, np.ptp(settled))
+
+
+def test_a_late_sample_keeps_the_dither_a_clean_digital_sinusoid() -> None:
+    """The dither advances its phase by a fixed step per sample, whatever the step's length:
+    the phase steps and the notches are the same for steps of 1, 2 and 3 ms, and stepped with
+    those mixed (late samples), the phase counts samples, so each row's dither stays an exact
+    sinusoid of the sample count, which the notches null."""
+    from fbcc_ros.core.control.robust_kernel import C_DITHER, C_SAMPLES, P_F0, P_NOTCH
+
+    law = RobustFbcc(_pair("clearance", 1e9), RobustParams())
+    for dt in (1e-3, 2e-3, 3e-3):
+        law.prepare(dt)
+    prms = [law._parameters(dt) for dt in (1e-3, 2e-3, 3e-3)]
+    for prm in prms[1:]:  # phase steps and notches: one set for every step's length
+        for cut in (slice(P_F0, P_F0 + 4), slice(P_NOTCH, P_NOTCH + 12)):
+            np.testing.assert_allclose(prm[cut], prms[0][cut], rtol=1e-12, atol=0.0)
+    law.reset(np.zeros(5))
+    rng = np.random.default_rng(2)
+    x = np.array([2e-6, 0.0, 1e-3, 0.0, 0.0])
+    phases = []
+    for _ in range(60):  # in contact, pressed: the dither is on
+        law.step(np.array([0.5, 0.2, 5.0, 0.001, 0.002]), x, float(rng.choice([1e-3, 2e-3, 3e-3])))
+        m = law._main[0]
+        phases.append(m[C_SAMPLES])
+    np.testing.assert_array_equal(phases, np.arange(1, 61))
+    assert law._main[0, C_DITHER] > 0.0
