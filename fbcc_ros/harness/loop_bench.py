@@ -100,25 +100,36 @@ class LoopFigures:
 
 
 def measure(
-    chain: str, seconds: float, processes: bool = False, robust: bool = False
+    chain: str,
+    seconds: float,
+    processes: bool = False,
+    robust: bool = False,
+    recorder: bool = False,
+    rate_hz: float | None = None,
 ) -> LoopFigures:
-    """Runs the ``bare`` or the ``fbcc`` chain for ``seconds`` at the scenario's rate; with
-    ``robust``, the ``fbcc`` chain runs the stiffness-robust law (module doc)."""
+    """Runs the ``bare`` or the ``fbcc`` chain for ``seconds`` at the scenario's rate (or
+    ``rate_hz``); with ``robust``, the ``fbcc`` chain runs the stiffness-robust law (module
+    doc); with ``recorder``, an fbcc_record in its own process records the cell's topics, as
+    the bringup does."""
     from fbcc_ros.core.sim.scenario import find as find_scenario
 
     path = find_scenario(SCENARIO)
-    if not robust:
-        return _measure(chain, seconds, processes, str(path))
     data = yaml.safe_load(path.read_text())
-    data["controller"] = {"type": "fbcc", "params": ROBUST_PARAMS}
+    if robust:
+        data["controller"] = {"type": "fbcc", "params": ROBUST_PARAMS}
+    if rate_hz is not None:
+        data["rate_hz"] = rate_hz
     with tempfile.TemporaryDirectory() as folder:
-        robust_path = Path(folder) / "robust.yaml"
-        robust_path.write_text(yaml.safe_dump(data))
-        return _measure(chain, seconds, processes, str(robust_path))
+        run_path = Path(folder) / "scenario.yaml"
+        run_path.write_text(yaml.safe_dump(data))
+        bag = Path(folder) / "bag" if recorder else None
+        return _measure(chain, seconds, processes, str(run_path), bag)
 
 
-def _measure(chain: str, seconds: float, processes: bool, path: str) -> LoopFigures:
-    from fbcc_ros.nodes.bringup import cell_nodes, start_insertion
+def _measure(
+    chain: str, seconds: float, processes: bool, path: str, bag: Path | None
+) -> LoopFigures:
+    from fbcc_ros.nodes.bringup import cell_nodes, recorder, start_insertion, wait_recording
 
     sc = scenario_io.load(path)
     specs = cell_nodes(path, sc, "fbcc", processes=processes)
@@ -129,7 +140,11 @@ def _measure(chain: str, seconds: float, processes: bool, path: str) -> LoopFigu
         specs = [specs[0]] + [
             NodeSpec(s.name, cls) for s, cls in zip(specs[1:], bare, strict=True)
         ]
+    if bag is not None:
+        specs.append(recorder(bag))
     with CellRun(specs, processes=processes, probe=True) as run:
+        if bag is not None:
+            wait_recording(run, timeout=30.0)
         if chain == "bare":
             run.spin_until(lambda: len(run.observer.latency) > 100, 10.0, "no TCP command")
         else:
