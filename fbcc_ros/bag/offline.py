@@ -30,12 +30,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 import yaml
 
 from fbcc_ros.bag.reader import Bag
 from fbcc_ros.core.arrays import FloatArray
-from fbcc_ros.core.contact.features import features_from_pose
 from fbcc_ros.core.control.phase import Phase
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.pipeline import compensation, controller, kinematics
@@ -123,11 +121,6 @@ class OfflineCell:
         self.controller = controller.ControllerStage(ctrl)
         self.wrist = self.compensation.robot is not None
 
-    def features(self, command: pin.SE3) -> FloatArray:
-        """A commanded pose as the controller's features (its nominal radius)."""
-        radius = self.controller.nominal.peg_radius
-        return features_from_pose(command.rotation, command.translation, radius)
-
 
 def replay_offline(bag: Bag, given: dict[str, dict[str, Any]]) -> OfflineResult:
     """Runs ``bag`` through an :class:`OfflineCell` configured by ``given``."""
@@ -170,7 +163,7 @@ def replay_offline(bag: Bag, given: dict[str, dict[str, Any]]) -> OfflineResult:
             continue
         counts["stepped"] += 1
         t.append(stamp)
-        commands.append(cell.features(command))
+        commands.append(ctrl.features_of(command))
         matched.append(flow.commands.get(key, np.full(5, np.nan)))
     counts["bias_used"] = cell.compensation.comp.bias.tolist()  # recorded, or tared from the bag
     return OfflineResult(np.array(t), np.array(commands).reshape(-1, 5),
@@ -201,7 +194,7 @@ def _recorded_flow(bag: Bag, cell: OfflineCell) -> _Flow:
     commands: dict[int, FloatArray] = {}
     for m in bag.of("/fbcc/command"):  # the peg's pose in {H}: back to the controller's features
         stamp, peg = pose_from_cdr(m.data)
-        commands[_key(stamp)] = cell.features(peg)
+        commands[_key(stamp)] = cell.controller.features_of(peg)
     counts: dict[str, Any] = {"raw": len(raw), "dropped_by_compensation": 0}
     if not outputs:
         return _Flow(None, commands, counts)

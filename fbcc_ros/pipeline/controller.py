@@ -107,9 +107,13 @@ class ControllerStage:
         if peg_in_hole is None:
             self.sup.on_features(now, [float("nan")] * 5)
             return
+        self.sup.on_features(now, self.features_of(peg_in_hole))
+
+    def features_of(self, peg_in_hole: pin.SE3) -> FloatArray:
+        """The features of a peg pose in {H}, read with the nominal radius (the measured pose,
+        or a command this stage gave)."""
         radius = self.nominal.peg_radius
-        self.sup.on_features(now, features_from_pose(peg_in_hole.rotation,
-                                                     peg_in_hole.translation, radius))  # fmt: skip
+        return features_from_pose(peg_in_hole.rotation, peg_in_hole.translation, radius)
 
     def wrench(self, now: float, stamp: float, wrench: ArrayLike) -> pin.SE3 | None:
         """One control period on the compensated wrench sampled at ``stamp``: the command as

@@ -11,6 +11,8 @@ place that maps between the two.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike
@@ -54,11 +56,16 @@ def response_from_wrench(wrench: ArrayLike, acting_point: ArrayLike | None = Non
     ROS convention for a wrench in frame ``hole``) and are moved to that point:
     ``tau_A = tau_O - p_A x f``."""
     w = np.asarray(wrench, dtype=float)
-    fx, fy, fz, tx, ty = float(w[0]), float(w[1]), float(w[2]), float(w[3]), float(w[4])
     if acting_point is not None:
-        ax, ay, az = (float(v) for v in np.asarray(acting_point, dtype=float))
-        tx, ty = tx - (ay * fz - az * fy), ty - (az * fx - ax * fz)
-    return np.array([fx, fy, -fz, tx, ty])
+        w = _to_point(tuple(np.asarray(acting_point, dtype=float).tolist())) @ w
+    return np.array([w[0], w[1], -w[2], w[3], w[4]])
+
+
+@functools.lru_cache(maxsize=8)
+def _to_point(point: tuple[float, ...]) -> FloatArray:
+    """:func:`transfer_matrix` from {H}'s origin to ``point``, computed once per point (the
+    controller moves every sample's moments to its one acting point)."""
+    return transfer_matrix(pin.SE3.Identity(), point)
 
 
 def wrench_from_response(
@@ -69,9 +76,9 @@ def wrench_from_response(
     {H} origin: ``tau_O = tau_A + p_A x f`` (the inverse of :func:`response_from_wrench`)."""
     r = np.asarray(response, dtype=float)
     wrench = np.array([r[0], r[1], -r[2], r[3], r[4], mz])
-    if acting_point is not None:
-        wrench[3:] += np.cross(np.asarray(acting_point, dtype=float), wrench[:3])
-    return wrench
+    if acting_point is None:
+        return wrench
+    return transfer(wrench, pin.SE3(np.eye(3), np.asarray(acting_point, dtype=float)))
 
 
 def virtual_wrench(jacobian: ArrayLike, external_torques: ArrayLike, damping: float) -> FloatArray:

@@ -100,8 +100,7 @@ class CellKinematics:
         q_now = checked_start(self.robot, q_current, dt, "q_current")
         rotation = peg_in_hole.rotation
         turn = self._spin(q_now) - spin_of(rotation)  # R_HP = S(a) R_aligned R_z(spin)
-        c, s = math.cos(turn), math.sin(turn)
-        spun = rotation @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        spun = rotation @ pin.rpy.rpyToMatrix(0.0, 0.0, turn)
         return self._solve(self.hole_in_base * pin.SE3(spun, peg_in_hole.translation), q_now, dt)
 
     def _spin(self, q: FloatArray) -> float:
