@@ -28,7 +28,7 @@ from typing import Any
 
 from fbcc_ros.core.errors import FbccError
 from fbcc_ros.ros.executor import make_executor
-from fbcc_ros.ros.params import freeze_heap
+from fbcc_ros.ros.params import settle
 
 
 @dataclass
@@ -93,7 +93,7 @@ class CellRun:
                     self._construct(spec)
             if chain:
                 self._chain()
-            freeze_heap()
+            settle(self.nodes.values())
         except BaseException:
             self.close()
             raise

@@ -64,6 +64,10 @@ class FbccControllerNode(Node):
         self._publish_phase()
         publish_diagnostics(self, self._report)
 
+    def preload(self) -> None:
+        """Load the compiled code of the stage now (called before the loop, by ``run``)."""
+        self.stage.preload()
+
     def _report(self) -> tuple[bytes, str, dict[str, Any]]:
         levels = {Phase.FAULT: ERROR, Phase.FORCE_LIMIT: WARN, Phase.ABORTED: WARN}
         level = levels.get(self.sup.phase, OK)

@@ -50,6 +50,10 @@ class KinematicsNode(Node):
             self, counter_report(lambda: {"ik_failures": self.failures}, ("ik_failures",), "IK")
         )
 
+    def preload(self) -> None:
+        """Load the compiled code of the stage now (called before the loop, by ``run``)."""
+        self.stage.preload()
+
     def on_joints(self, data: bytes) -> None:
         try:
             stamp, q, _ = joints_from_cdr(data, self.stage.joint_names)

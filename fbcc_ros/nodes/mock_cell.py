@@ -78,6 +78,10 @@ class MockCellNode(Node):
         bad = ("ticks_skipped", "commands_refused")
         publish_diagnostics(self, counter_report(lambda: self.counts, bad, "mock cell"))
 
+    def preload(self) -> None:
+        """Load the compiled code of the cell now (called before the loop, by ``run``)."""
+        self.cell.preload()
+
     def on_command(self, data: bytes) -> None:
         try:
             self.cell.command(positions_from_cdr(data))

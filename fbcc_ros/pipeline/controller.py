@@ -87,6 +87,10 @@ class ControllerStage:
         self.response: FloatArray | None = None  # the last period's
         self.input_rate = InputRate(rate, "the compensated wrench")
 
+    def preload(self) -> None:
+        """Load the law's compiled step now, not in the first period."""
+        self.sup.law.preload()
+
     def apply(self, values: dict[str, Any]) -> None:
         """The runtime parameters (the safety limits); raises ConfigError for bad ones."""
         self.sup.limits = safety_limits(values)

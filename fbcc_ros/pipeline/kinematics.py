@@ -64,6 +64,10 @@ class KinematicsStage:
         self.q: FloatArray | None = None
         self.q_command: FloatArray | None = None
 
+    def preload(self) -> None:
+        """Load the compiled IK step now, not in the first period."""
+        self.cell.preload()
+
     @property
     def joint_names(self) -> tuple[str, ...]:
         return self.cell.robot.joint_names

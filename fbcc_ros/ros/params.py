@@ -5,7 +5,7 @@ one in its YAML) is refused at start-up, with the closest declared name."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 from rcl_interfaces.msg import (
@@ -113,13 +113,23 @@ def run(node_factory: Callable[[], Node]) -> None:
             raise SystemExit(2) from None
         executor = make_executor()
         executor.add_node(node)
-        freeze_heap()
+        settle([node])
         while not stop and rclpy.ok():
             executor.spin_once(timeout_sec=0.1)
     finally:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+
+
+def settle(nodes: Iterable[Any]) -> None:
+    """Once the nodes are built, before the loop: each node's ``preload()`` (where it has one)
+    loads its compiled code, then :func:`freeze_heap`."""
+    for node in nodes:
+        preload = getattr(node, "preload", None)
+        if preload is not None:
+            preload()
+    freeze_heap()
 
 
 def freeze_heap() -> None:

@@ -82,17 +82,27 @@ class ComplianceLaw:
         insertion: Insertion | None = None,
     ) -> None:
         self.nominal = nominal
-        self._lever = nominal.lever_terms()
         self.params = params or ComplianceParams()
         self.insertion = insertion or Insertion()
         self.filter = ComplianceFilter(self.params)
-        limits = (self.params.x_d_limit_p, self.params.x_d_limit_p, 0.0,
-                  self.params.x_d_limit_o, self.params.x_d_limit_o)  # fmt: skip
-        self._dead_band = np.array(limits)
         self._single = True
         self.axis = AxisInsertion(nominal.peg_radius)
         self.reset(np.zeros(5))
-        _load_step()
+        dead_band = (self.params.x_d_limit_p, self.params.x_d_limit_p, 0.0,
+                     self.params.x_d_limit_o, self.params.x_d_limit_o)  # fmt: skip
+        base, per_depth = nominal.lever_terms()
+        self._prm = np.array([0.0, base, per_depth, nominal.hole_depth, nominal.hole_radius,
+                              self.params.F_ext_limit**2, self.insertion.speed,
+                              self.insertion.depth, *dead_band])  # fmt: skip
+
+    @staticmethod
+    def preload() -> None:
+        """Load the compiled step for the controller's argument types now (from numba's cache,
+        or compiled on a machine's first run): on the first call it cost the 1 kHz loop ~8 ms.
+        No rows, so nothing is stepped."""
+        rows, none = np.zeros((0, 5)), np.zeros(0)
+        _law_rows(_FBCC, np.zeros(N_PRM), rows, none, np.zeros((6, 5)), rows, rows,
+                  np.zeros((0, N_STATE)), rows)  # fmt: skip
 
     def reset(self, features: ArrayLike) -> None:
         """Start an insertion from the measured features, shape (5,) or (N, 5)."""
@@ -100,11 +110,9 @@ class ComplianceLaw:
         rows = self.axis.reset(rows)  # the law runs along the peg's axis
         n = len(rows)
         self.filter.reset(n)
-        self._x_rfr = rows.copy()  # reference feature vector; l is replaced by the ramp
-        self._l0 = rows[:, 2].copy()
-        self._elapsed = np.zeros(n)  # ramp time per trial; frozen once stopped
-        self._sum = np.zeros((n, 5))  # ∑ x_d dt (FBCC)
-        self._stopped = np.zeros(n, dtype=bool)
+        self._state = np.zeros((n, N_STATE))  # per trial, columns S_*
+        self._state[:, S_RFR : S_RFR + 5] = rows  # the reference; l is replaced by the ramp
+        self._state[:, S_L0] = rows[:, 2]
         self._command = rows.copy()
 
     @property
@@ -115,16 +123,17 @@ class ComplianceLaw:
 
     def phase_of(self, trial: int) -> Phase:
         """One trial's :attr:`phase` (the controller's, each period: no arrays built)."""
-        if self._stopped[trial]:
+        row = self._state[trial]
+        if row[S_STOPPED]:
             return LAW_PHASES[2]
         ramp = self.insertion
-        done = self._l0[trial] + ramp.speed * self._elapsed[trial] >= ramp.depth
+        done = row[S_L0] + ramp.speed * row[S_ELAPSED] >= ramp.depth
         return LAW_PHASES[1] if done else LAW_PHASES[0]
 
     @property
     def stopped(self) -> FloatArray:
         """Per trial, whether the force limit stopped it (bool array)."""
-        return self._stopped
+        return self._state[:, S_STOPPED] != 0.0
 
     @property
     def trips(self) -> FloatArray:
@@ -149,87 +158,76 @@ class ComplianceLaw:
         n = len(self._command)
         if len(w) != n or len(x) != n:
             raise InputError("response", f"{len(w)} rows", f"{n} rows, as reset")
-        # the axis depth (contiguous, as _load_step loaded it)
-        depth_arr = np.ascontiguousarray(self.axis.measured(x, dt)[:, 2])
-        c = self.filter.coefficients(dt)
+        # the axis depth (contiguous, as preload loaded it)
+        depth = np.ascontiguousarray(self.axis.measured(x, dt)[:, 2])
+        self._prm[P_DT] = dt
         x_d, v_d = self.filter.state()
-        base, per_depth = self._lever
-        _law_rows(self.CODE, np.ascontiguousarray(w), depth_arr, dt, c, base, per_depth,
-                  self.nominal.hole_depth, self.nominal.hole_radius, self._dead_band,
-                  self.params.F_ext_limit**2, self.insertion.speed, self.insertion.depth,
-                  x_d, v_d, self._x_rfr, self._l0, self._elapsed, self._sum, self._stopped,
-                  self._command)  # fmt: skip
+        _law_rows(self.CODE, self._prm, np.ascontiguousarray(w), depth,
+                  self.filter.coefficients(dt), x_d, v_d, self._state, self._command)  # fmt: skip
         command = self.axis.command(self._command)
         return command[0] if self._single else command
 
 
 #: Codes of the laws in the compiled step.
 _FBCC, _ADMITTANCE, _NONE = 0, 1, 2
+#: The step's parameters: period [s], the lever terms of eq. (29) (base, per depth), hole depth
+#: and radius [m], F_ext_limit² [N²], ramp speed [m/s] and final depth [m], then the dead band.
+P_DT, P_BASE, P_PER_DEPTH, P_HOLE_DEPTH, P_HOLE_RADIUS, P_FORCE2, P_SPEED, P_FINAL = range(8)
+P_BAND = 8  # the five of the dead band from here
+N_PRM = 13
+#: The per-trial state's columns: the reference x_rfr, the depth at reset, the ramp time
+#: (frozen once stopped), ∑ x_d dt (FBCC), and 1.0 once the force limit stopped the trial.
+S_RFR, S_L0, S_ELAPSED, S_SUM, S_STOPPED = 0, 5, 6, 7, 12  # x_rfr and the sum: five columns
+N_STATE = 13
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
 def _law_rows(
     law: int,
+    prm: FloatArray,
     w: FloatArray,
     depth: FloatArray,
-    dt: float,
     c: FloatArray,
-    base: float,
-    per_depth: float,
-    hole_depth: float,
-    hole_radius: float,
-    dead_band: FloatArray,
-    force_limit2: float,
-    speed: float,
-    final_depth: float,
     x_d: FloatArray,
     v_d: FloatArray,
-    x_rfr: FloatArray,
-    l0: FloatArray,
-    elapsed: FloatArray,
-    total: FloatArray,
-    stopped: FloatArray,
+    state: FloatArray,
     command: FloatArray,
 ) -> None:
-    """One control period of every trial (row), the state arrays advanced in place."""
+    """One control period of every trial (row): the filter's x_d, v_d and the state (columns
+    S_*) advanced in place, the command written. ``prm`` holds the P_* parameters."""
+    dt = prm[P_DT]
     u = np.zeros(5)
     for i in range(w.shape[0]):
+        s = state[i]
         # Algorithm 1 runs while |F_ext| <= F_ext_limit; past it the insertion stops for good.
-        if w[i, 0] * w[i, 0] + w[i, 1] * w[i, 1] + w[i, 2] * w[i, 2] > force_limit2:
-            stopped[i] = True
-        running = not stopped[i]
+        if w[i, 0] * w[i, 0] + w[i, 1] * w[i, 1] + w[i, 2] * w[i, 2] > prm[P_FORCE2]:
+            s[S_STOPPED] = 1.0
+        running = s[S_STOPPED] == 0.0
         if law == _FBCC:  # A(l) F_ext, eq. (28) with gamma(l) of eq. (29)
-            direct_row(w[i], depth[i], base, per_depth, hole_depth, hole_radius, u)
+            direct_row(w[i], depth[i], prm[P_BASE], prm[P_PER_DEPTH], prm[P_HOLE_DEPTH],
+                       prm[P_HOLE_RADIUS], u)  # fmt: skip
         elif law == _ADMITTANCE:  # the raw wrench, A = I: My drives theta_y
             u[:] = w[i]
         second_order_row(c, x_d[i], v_d[i], u)  # eq. (27): M x_d'' + D x_d' + K x_d = u
         if running:
-            elapsed[i] += dt
+            s[S_ELAPSED] += dt
         # l_rfr: a ramp at the insertion speed to the final depth L
-        x_rfr[i, 2] = min(l0[i] + speed * elapsed[i], final_depth)
+        s[S_RFR + 2] = min(s[S_L0] + prm[P_SPEED] * s[S_ELAPSED], prm[P_FINAL])
         if not running:
             continue  # the command is held
         for j in range(5):
+            x_rfr = s[S_RFR + j]
             if law == _FBCC:
                 # dead band (Algorithm 1): adjust only the features whose |x_d| exceeds it;
                 # eq. (27): x_c = x_rfr - ∫ x_d dt
-                if abs(x_d[i, j]) > dead_band[j]:
-                    total[i, j] += x_d[i, j] * dt
-                command[i, j] = x_rfr[i, j] - total[i, j]
+                if abs(x_d[i, j]) > prm[P_BAND + j]:
+                    s[S_SUM + j] += x_d[i, j] * dt
+                command[i, j] = x_rfr - s[S_SUM + j]
             elif law == _ADMITTANCE:
                 # x_c = x_rfr - x_d: a displacement, it lasts only while the force does
-                command[i, j] = x_rfr[i, j] - x_d[i, j]
+                command[i, j] = x_rfr - x_d[i, j]
             else:  # position control only: the reference
-                command[i, j] = x_rfr[i, j]
-
-
-def _load_step() -> None:
-    """Loads the compiled step for the controller's argument types now (from numba's cache, or
-    compiled on a machine's first run): on the first call it cost the 1 kHz loop ~8 ms. No
-    rows, so nothing is stepped."""
-    rows, row, none = np.zeros((0, 5)), np.zeros(0), np.zeros(0, dtype=bool)
-    _law_rows(_FBCC, rows, row, 1e-3, np.zeros((6, 5)), 0.0, 0.0, 1.0, 1.0, np.zeros(5), 1.0,
-              1.0, 1.0, rows, rows, rows, row, row, rows, none, rows)  # fmt: skip
+                command[i, j] = x_rfr
 
 
 class FbccController(ComplianceLaw):

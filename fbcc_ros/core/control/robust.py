@@ -126,6 +126,10 @@ class RobustFbcc:
         self._single = True
         self.axis = AxisInsertion(nominal.peg_radius)
         self.reset(np.zeros(5))
+
+    @staticmethod
+    def preload() -> None:
+        """Load the compiled step now, not on the first period (:func:`rk.load_step`)."""
         rk.load_step()
 
     # -- the ComplianceLaw interface ----------------------------------------------------------

@@ -52,7 +52,10 @@ class CellKinematics:
         self.hole_in_base = hole_in_base.copy()
         self.peg_radius = peg_radius
         self.settings = settings or IkSettings()
-        preload_ik(robot.nq)
+
+    def preload(self) -> None:
+        """Load the compiled IK step now, not in the first control period."""
+        preload_ik(self.robot.nq)
 
     def peg_in_hole(self, q: ArrayLike) -> pin.SE3:
         """``T_H_P`` at joints ``q``."""

@@ -108,10 +108,13 @@ class MockCell:
         self._noise = np.append(sc.noise, 0.0)  # no noise figure for mz
         self._rng = np.random.default_rng(sc.seed if seed is None else seed)
         self._alpha: dict[float, float] = {}
-        # the contact kernel is compiled code loaded on first use: load it now, before the
-        # nodes freeze the heap (loaded in the loop, it left ~47k objects for the collector
-        # to walk: full collections of ~8 ms)
+
+    def preload(self) -> None:
+        """Load the compiled contact kernel and IK step now, before the nodes freeze the heap
+        (loaded in the loop, the kernel left ~47k objects for the collector to walk: full
+        collections of ~8 ms)."""
         self.geometry.response(np.zeros(5))
+        self.truth.preload()
 
     def command(self, q_cmd: ArrayLike) -> None:
         """A new joint position command; refused (InputError) if malformed or beyond a limit."""

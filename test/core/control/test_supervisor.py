@@ -128,16 +128,20 @@ def test_a_rate_too_low_for_the_gains_is_refused_at_construction() -> None:
     Supervisor(law, 1e-4, SafetyLimits())  # 10 kHz resolves it
 
 
-def test_compiled_kernels_are_loaded_before_the_loop() -> None:
-    """Constructing the controller's law, the mock's plant and the kinematics' IK loads their
-    numba kernels (from the cache): loaded at the first period instead, they cost the 1 kHz
-    loop ~8 ms and left ~47k objects for the garbage collector to walk. A fresh interpreter,
-    so no other test has loaded them already."""
+def test_compiled_kernels_load_at_preload_for_the_types_the_loop_uses() -> None:
+    """Constructing a law, the mock's plant or the IK compiles nothing of the loop; ``preload()``
+    loads each numba kernel (from the cache), with the argument types the first period then
+    uses (no second signature): loaded at the first period instead, they cost the 1 kHz loop
+    ~8 ms and left ~47k objects for the garbage collector to walk. A fresh interpreter, so no
+    other test has loaded them already."""
     code = """if True:
+        import numpy as np
         from fbcc_ros.core.paper import paper_scenario
         from fbcc_ros.core.contact import kernel as contact
         from fbcc_ros.core.control import laws as control
         from fbcc_ros.core.control import robust_kernel
+        from fbcc_ros.core.control.compliance import ComplianceParams
+        from fbcc_ros.core.control.robust_params import RobustParams
         from fbcc_ros.core.kinematics import ik
         from fbcc_ros.core.kinematics.cell import CellKinematics, aligned_hole_at
         from fbcc_ros.core.kinematics.robot import RobotModel
@@ -146,18 +150,29 @@ def test_compiled_kernels_are_loaded_before_the_loop() -> None:
         sc = scenario.validate(paper_scenario("interference", "fbcc"))
         kernels = (control._law_rows, robust_kernel.robust_rows, contact.response_kernel,
                    ik._dls_update)
-        assert not any(k.signatures for k in kernels)
-        control.make_law("fbcc", sc.geometry, sc.params, sc.insertion)
-        control.make_law("admittance", sc.geometry, sc.params, sc.insertion)
+        laws = [control.make_law("fbcc", sc.geometry, ComplianceParams(), sc.insertion),
+                control.make_law("admittance", sc.geometry, ComplianceParams(), sc.insertion),
+                control.make_law("fbcc", sc.geometry, RobustParams(), sc.insertion)]
+        print(*(len(k.signatures) for k in kernels))
         robot = RobotModel.from_name("iiwa14")
         hole = aligned_hole_at(robot.peg_in_base(robot.home))
-        MockCell(sc, robot, hole)
-        CellKinematics(robot, hole, sc.geometry.peg_radius)
+        cell = MockCell(sc, robot, hole)
+        kin = CellKinematics(robot, hole, sc.geometry.peg_radius)
+        for piece in (*laws, cell, kin):
+            piece.preload()
+        print(*(len(k.signatures) for k in kernels))
+        for law in laws:
+            law.step(np.zeros(5), np.zeros(5), 1e-3)
+        cell.step(1e-3)
+        kin.pose_solution(kin.peg_in_hole(cell.q), cell.q, 1e-3)
         print(*(len(k.signatures) for k in kernels))
     """
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.split() == ["1", "1", "1", "1"]
+    constructed, preloaded, stepped = out.stdout.splitlines()
+    assert constructed.split()[:2] == ["0", "0"]  # the laws' kernels: not by their constructors
+    assert preloaded.split() == ["1", "1", "1", "1"]
+    assert stepped.split() == ["1", "1", "1", "1"]
 
 
 def test_bad_limits() -> None:
