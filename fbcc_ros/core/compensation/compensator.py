@@ -234,17 +234,16 @@ class Compensator:
             self.counts["no_joint_state"] += 1
             return None
         try:
-            w_base = virtual_wrench(
-                self.robot.jacobian(self._joints[1], SENSOR_FRAME),
+            # the Jacobian in {S}'s own axes: the wrench comes in {S}, about its origin
+            w_sensor = virtual_wrench(
+                self.robot.jacobian(self._joints[1], SENSOR_FRAME, pin.LOCAL),
                 external_torques,
                 self.setup.virtual_damping,
             )
         except InputError:
             self.counts["non_finite"] += 1
             return None
-        rot = self.robot.frame_in_base(self._joints[1], SENSOR_FRAME).rotation
-        # the Jacobian's wrench is in base axes about the frame's origin: rotate it into {S}
-        return self._process(stamp, np.concatenate([rot.T @ w_base[:3], rot.T @ w_base[3:]]))
+        return self._process(stamp, w_sensor)
 
     def _process(self, stamp: float, wrench: ArrayLike) -> Compensated | None:
         if not math.isfinite(stamp) or stamp <= self._last_stamp:

@@ -14,6 +14,7 @@ import importlib.metadata
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -254,14 +255,16 @@ class RobotModel:
         accel = pin.getFrameClassicalAcceleration(self.model, self.data, fid, pin.LOCAL)
         return placement, velocity, accel
 
-    def jacobian(self, q: ArrayLike, frame: str = PEG_FRAME) -> FloatArray:
-        """Frame Jacobian, (6, nq): ``(v, omega)`` of the frame's origin, both in base axes
-        (Pinocchio's LOCAL_WORLD_ALIGNED)."""
+    def jacobian(
+        self, q: ArrayLike, frame: str = PEG_FRAME, axes: Any = pin.LOCAL_WORLD_ALIGNED
+    ) -> FloatArray:
+        """Frame Jacobian, (6, nq): ``(v, omega)`` of the frame's origin, in base axes (the
+        default, Pinocchio's LOCAL_WORLD_ALIGNED) or in the frame's own (``pin.LOCAL``)."""
         arr = self.check_joints(q)
         fid = self.frame_id(frame)
         pin.computeJointJacobians(self.model, self.data, arr)
         pin.updateFramePlacements(self.model, self.data)
-        return np.array(pin.getFrameJacobian(self.model, self.data, fid, pin.LOCAL_WORLD_ALIGNED))
+        return np.array(pin.getFrameJacobian(self.model, self.data, fid, axes))
 
 
 def _joint_names(model: pin.Model) -> list[str]:
