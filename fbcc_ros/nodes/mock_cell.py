@@ -16,55 +16,26 @@ from __future__ import annotations
 import time
 from typing import Any
 
-import numpy as np
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from fbcc_ros.core.compensation.payload import Payload
-from fbcc_ros.core.contact.mapping_study import perturbed
 from fbcc_ros.core.errors import FbccError
-from fbcc_ros.core.sim import scenario as scenario_io
-from fbcc_ros.core.sim.mock_cell import MockCell
-from fbcc_ros.pipeline.kinematics import CELL, cell_from
-from fbcc_ros.pipeline.parameters import Param
+from fbcc_ros.pipeline.mock_cell import TABLE, MockStage
 from fbcc_ros.ros import topics
 from fbcc_ros.ros.cdr import encode_array
 from fbcc_ros.ros.convert import joints_to_cdr, positions_from_cdr, wrench_to_cdr
 from fbcc_ros.ros.diagnostics import counter_report, publish_diagnostics
 from fbcc_ros.ros.params import declare, run
 
-TABLE = (
-    Param("scenario", "config/scenarios/bringup_interference.yaml", "scenario YAML: the true "
-          "deviation of the hole (initial), the sensor noise and bias, the robot lag"),
-    Param("rate_hz", 0.0, "joint state and sensor rate; 0: the scenario's rate_hz", "Hz", 0.0,
-          10000.0),
-    Param("draw_geometry", False, "draw the true radii from Table II's tolerances"),
-    Param("seed", -1, "seed of the noise and of the drawn geometry; -1: the scenario's seed", "",
-          -1, 2**31 - 1),
-    Param("sensor_frame", "ft_sensor", "frame_id of the raw readings"),
-    Param("fixture_mass", 1.5, "mass of the hole fixture on the sensor", "kg", 0.0, 100.0),
-    *CELL,
-)  # fmt: skip
-
 
 class MockCellNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("mock_cell", **kwargs)
-        values = declare(self, TABLE)
-        sc = scenario_io.load(scenario_io.find(values["scenario"]))
-        robot, hole = cell_from(values)
-        geometry = None
-        seed = sc.seed if values["seed"] < 0 else values["seed"]
-        if values["draw_geometry"]:
-            geometry = perturbed(sc.geometry, np.random.default_rng(seed),
-                                 friction_spread=0.0, stiffness_octaves=0.0)  # fmt: skip
-        fixture = Payload(values["fixture_mass"], (0.0, 0.0, 0.02))
-        self.cell = MockCell(sc, robot, hole, geometry, fixture, seed)
-        self.dt = 1.0 / (values["rate_hz"] or sc.rate_hz)
-        self.frame = values["sensor_frame"]
-        self.names = robot.joint_names
+        stage = MockStage(declare(self, TABLE))
+        self.cell, self.dt, self.frame = stage.cell, stage.dt, stage.frame
+        self.names = self.cell.robot.joint_names
         self.counts = {"ticks": 0, "ticks_caught_up": 0, "ticks_skipped": 0,
                        "commands_refused": 0}  # fmt: skip
         self._start: float | None = None

@@ -21,9 +21,14 @@ import pytest
 
 from fbcc_ros.bag.reader import read_bag
 from fbcc_ros.core.errors import FbccError
-from fbcc_ros.pipeline import compensation, controller, kinematics
+from fbcc_ros.pipeline import compensation, controller, kinematics, mock_cell
 from fbcc_ros.pipeline.parameters import Param, resolve
-from fbcc_ros.ros.convert import joints_from_cdr, pose_from_cdr, wrench_from_cdr
+from fbcc_ros.ros.convert import (
+    joints_from_cdr,
+    pose_from_cdr,
+    positions_from_cdr,
+    wrench_from_cdr,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 BAG = read_bag(ROOT / "test" / "data" / "bags" / "short_interference")
@@ -49,6 +54,8 @@ CONTEXT: dict[str, dict[str, Any]] = {
 }
 for _name in ("hole_from_home", "hole_xyz", "hole_rpy"):  # the compensation: a wrist sensor's
     CONTEXT[f"dynamic_compensation.{_name}"] = {**WRIST, **CONTEXT[_name]}
+    # the mock places the arm over the hole at start: a reachable one, changed from there
+    CONTEXT[f"mock_cell.{_name}"] = {**HOLE, "hole_from_home": _name == "hole_from_home"}
 #: Changed values where the generic change would not reach where the parameter acts.
 CHANGED: dict[str, Any] = {
     "scenario": ROBUST,
@@ -66,6 +73,7 @@ CHANGED: dict[str, Any] = {
     "virtual_damping": 1.0,
     "robot": "panda",
     "hole_from_home": False,
+    "seed": 7,
 }
 
 
@@ -157,7 +165,19 @@ def _controller(values: dict[str, Any]) -> list[Any]:
     return [*out, stage.input_rate.measured_hz]
 
 
+def _mock(values: dict[str, Any]) -> list[Any]:
+    """The mock's plant following the recorded joint commands, one period each."""
+    stage = mock_cell.MockStage(values)
+    out: list[Any] = [stage.dt, stage.frame]
+    for m in BAG.of("/joint_command"):
+        _attempt(out, stage.cell.command, positions_from_cdr(m.data))
+        sample = stage.cell.step(stage.dt)
+        out += [sample.q, sample.raw, sample.response]
+    return out
+
+
 STAGES = {
+    "mock_cell": (mock_cell.TABLE, _mock),
     "dynamic_compensation": (compensation.TABLE, _compensation),
     "kinematics": (kinematics.TABLE, _kinematics),
     "fbcc_controller": (controller.TABLE, _controller),

@@ -1,0 +1,59 @@
+"""The mock cell's stage: its parameters, and the plant they configure (ROS-free).
+
+:class:`fbcc_ros.core.sim.mock_cell.MockCell` is the plant; this stage builds it from the
+mock_cell node's parameters (the scenario, the rate, a drawn geometry, the seed, the fixture,
+the cell's robot and hole) so that the node stays an adapter and a test can drive the same
+configuration without ROS.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from fbcc_ros.core.compensation.payload import Payload
+from fbcc_ros.core.contact.mapping_study import perturbed
+from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim.mock_cell import MockCell
+from fbcc_ros.pipeline.kinematics import CELL, cell_from
+from fbcc_ros.pipeline.parameters import Param
+
+TABLE = (
+    Param("scenario", "config/scenarios/bringup_interference.yaml", "scenario YAML: the true "
+          "deviation of the hole (initial), the sensor noise and bias, the robot lag"),
+    Param("rate_hz", 0.0, "joint state and sensor rate; 0: the scenario's rate_hz", "Hz", 0.0,
+          10000.0),
+    Param("draw_geometry", False, "draw the true radii from Table II's tolerances"),
+    Param("seed", -1, "seed of the noise and of the drawn geometry; -1: the scenario's seed", "",
+          -1, 2**31 - 1),
+    Param("sensor_frame", "ft_sensor", "frame_id of the raw readings"),
+    Param("fixture_mass", 1.5, "mass of the hole fixture on the sensor", "kg", 0.0, 100.0),
+    *CELL,
+)  # fmt: skip
+
+#: The hole fixture's centre of mass in the sensor frame [m].
+FIXTURE_COM = (0.0, 0.0, 0.02)
+
+
+class MockStage:
+    """The plant of the mock_cell node, configured by its parameters (``TABLE``, resolved).
+
+    Attributes:
+        cell: The plant (``command`` a joint position, ``step`` one period).
+        dt: Its period [s]: ``rate_hz``, or the scenario's rate when 0.
+        frame: The frame_id of the raw readings.
+    """
+
+    def __init__(self, values: dict[str, Any]) -> None:
+        sc = scenario_io.load(scenario_io.find(values["scenario"]))
+        robot, hole = cell_from(values)
+        seed = sc.seed if values["seed"] < 0 else values["seed"]
+        geometry = None
+        if values["draw_geometry"]:
+            geometry = perturbed(sc.geometry, np.random.default_rng(seed),
+                                 friction_spread=0.0, stiffness_octaves=0.0)  # fmt: skip
+        fixture = Payload(values["fixture_mass"], FIXTURE_COM)
+        self.cell = MockCell(sc, robot, hole, geometry, fixture, seed)
+        self.dt = 1.0 / (values["rate_hz"] or sc.rate_hz)
+        self.frame: str = values["sensor_frame"]
