@@ -51,6 +51,17 @@ CONTROLLER_BUDGET_US = 100.0
 LATENCY_RATIO_TARGET = 2.0
 
 
+def machine_seconds(additions: int = 10**7) -> float:
+    """The time of ``additions`` integer additions in a Python loop, scaled to 10⁷ [s]: the
+    machine's speed when the figures were taken (this VM's varies several-fold from day to
+    day), so that figures from different runs can be compared."""
+    start = time.perf_counter()
+    total = 0
+    for i in range(additions):
+        total += i
+    return (time.perf_counter() - start) * 10**7 / additions
+
+
 def _random_features(rng: np.random.Generator, n: int) -> np.ndarray:
     tilt = math.radians(2.0)
     return np.column_stack(
@@ -279,6 +290,8 @@ def main(argv: list[str] | None = None) -> int:
     rng = np.random.default_rng(0)
     print(f"fbcc-bench ({'short' if args.short else 'full'} mode)")
     print(f"{'figure':46s} {'measured':>12s} {'target':>12s} {'ratio':>7s}")
+    speed = 10**6 if args.short else 10**7
+    print(f"{'machine: 10^7 Python additions [s], at start':46s} {machine_seconds(speed):12.2f}")
     for fit in ("clearance", "interference"):
         single = bench_single(fit, repeats, rng)
         print(
@@ -323,6 +336,7 @@ def main(argv: list[str] | None = None) -> int:
         label += f" (from {trials})"
     _line(label, f"{projected:.1f}", f"<= {MONTECARLO_TARGET_S:.0f}",
           MONTECARLO_TARGET_S / projected)  # fmt: skip
+    print(f"{'machine: 10^7 Python additions [s], at end':46s} {machine_seconds(speed):12.2f}")
     return 0
 
 
