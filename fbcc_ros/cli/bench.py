@@ -16,6 +16,7 @@ import numpy as np
 
 from fbcc_ros.core.compensation.compensator import Compensator, SensorSetup
 from fbcc_ros.core.compensation.payload import Payload
+from fbcc_ros.core.errors import FbccError
 from fbcc_ros.core.kinematics.cell import CellKinematics, aligned_hole_at, follow
 from fbcc_ros.core.kinematics.ik import solve_ik
 from fbcc_ros.core.kinematics.robot import RobotModel
@@ -267,11 +268,17 @@ def bench_loop(seconds: float, processes: bool, repeats: int, sweep: bool) -> No
 
 
 def _highest_rate(seconds: float, processes: bool) -> str:
-    """The first of ``SWEEP_HZ``, from the top, at which the cell delivers the target."""
+    """The first of ``SWEEP_HZ``, from the top, at which the cell delivers the target; a rate
+    at which the cell does not even start (a starved machine: the start service unanswered)
+    does not deliver it, and is said so."""
     from fbcc_ros.harness.loop_bench import measure
 
     for rate in SWEEP_HZ:
-        run = measure("fbcc", seconds, processes=processes, recorder=True, rate_hz=rate)
+        try:
+            run = measure("fbcc", seconds, processes=processes, recorder=True, rate_hz=rate)
+        except FbccError as exc:
+            print(f"  at {rate:.0f} Hz the cell did not run: {exc}")
+            continue
         if run.delivered >= DELIVERED_TARGET:
             return f"{rate:.0f} Hz"
     return f"< {SWEEP_HZ[-1]:.0f} Hz"

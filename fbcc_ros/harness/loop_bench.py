@@ -106,11 +106,13 @@ def measure(
     robust: bool = False,
     recorder: bool = False,
     rate_hz: float | None = None,
+    chained: bool = True,
 ) -> LoopFigures:
     """Runs the ``bare`` or the ``fbcc`` chain for ``seconds`` at the scenario's rate (or
     ``rate_hz``); with ``robust``, the ``fbcc`` chain runs the stiffness-robust law (module
     doc); with ``recorder``, an fbcc_record in its own process records the cell's topics, as
-    the bringup does."""
+    the bringup does; ``chained=False`` passes every message through DDS even in one process
+    (:class:`CellRun`'s ``chain``)."""
     from fbcc_ros.core.sim.scenario import find as find_scenario
 
     path = find_scenario(SCENARIO)
@@ -123,11 +125,11 @@ def measure(
         run_path = Path(folder) / "scenario.yaml"
         run_path.write_text(yaml.safe_dump(data))
         bag = Path(folder) / "bag" if recorder else None
-        return _measure(chain, seconds, processes, str(run_path), bag)
+        return _measure(chain, seconds, processes, str(run_path), bag, chained)
 
 
 def _measure(
-    chain: str, seconds: float, processes: bool, path: str, bag: Path | None
+    chain: str, seconds: float, processes: bool, path: str, bag: Path | None, chained: bool
 ) -> LoopFigures:
     from fbcc_ros.nodes.bringup import cell_nodes, recorder, start_insertion, wait_recording
 
@@ -142,7 +144,7 @@ def _measure(
         ]
     if bag is not None:
         specs.append(recorder(bag))
-    with CellRun(specs, processes=processes, probe=True) as run:
+    with CellRun(specs, processes=processes, probe=True, chain=chained) as run:
         if bag is not None:
             wait_recording(run, timeout=30.0)
         if chain == "bare":
