@@ -182,10 +182,10 @@ def test_a_misspelt_key_is_refused_at_start_up_with_the_closest_name(node: str) 
 
 
 def test_the_parameter_reference_is_generated_from_the_tables() -> None:
-    from fbcc_ros.nodes.reference import markdown
+    from fbcc_ros.cli.parameter_reference import markdown
 
     committed = (ROOT / "docs" / "parameters.md").read_text()
-    assert committed == markdown(), "run: python -m fbcc_ros.nodes.reference"
+    assert committed == markdown(), "run: python -m fbcc_ros.cli.parameter_reference"
     for _, table in NODES.values():
         assert all(f"| `{p.name}` |" in committed for p in table)
 

@@ -32,7 +32,7 @@ tolerances (so that the holder's spring is the identity and "converged" means
 For a :class:`ContactBatch` (or its bound ``response``) the iteration is compiled (numba,
 :mod:`fbcc_ros.core.sim.holder_kernel`) and calls the contact kernel one row at a time, so each row
 costs only the evaluations it needs; any other response callable runs the same iteration
-batched in numpy (all N rows per call).
+batched in numpy (all N rows per call, :mod:`fbcc_ros.core.sim.holder_batched`).
 
 A cold start deep in the wall (kN of rigid force) against a soft grasp can stall at the edge of
 a stiff edge contact, where the equilibrium lies within a nanometre of the contact's onset and
@@ -52,14 +52,13 @@ from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact import kernel as contact_kernel
 from fbcc_ros.core.contact.model import ContactBatch, as_rows
 from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.sim import holder_kernel
+from fbcc_ros.core.sim import holder_batched, holder_kernel
 from fbcc_ros.core.sim.holder import (
     BoolArray,
     Equilibrium,
     Grip,
     Holder,
     Response,
-    grip_moments,
     per_row,
 )
 
@@ -166,7 +165,7 @@ class HolderSolver:
         if contact is not None and len(contact) not in (1, n):
             raise InputError("x_robot", f"{n} rows", f"{len(contact)} rows, one per pair")
         if self.holder.is_rigid:
-            w = contact.response(xr) if contact is not None else _call(response, xr)  # type: ignore[arg-type]
+            w = contact.response(xr) if contact is not None else holder_batched.call(response, xr)  # type: ignore[arg-type]
             self.evaluations, self.iterations = n, 0
             out = Equilibrium(xr.copy(), w, np.zeros_like(xr), np.ones(n, dtype=bool))
             return _squeeze(out) if single else out
@@ -231,126 +230,9 @@ class HolderSolver:
         response: Response,
         grip: Grip,
     ) -> tuple[FloatArray, FloatArray, BoolArray, int, int]:
-        """The iteration of :func:`fbcc_ros.core.sim.holder_kernel.solve_rows`, batched in numpy
-        for any callable."""
         assert self._jac is not None and self._have is not None
-        jac, have = self._jac, self._have
-        n = len(xr)
-        k, tol = self._k, self._tol
-        scale = tol / k  # physical units per scaled unit
-
-        def features(qq: FloatArray) -> FloatArray:
-            x = xr.copy()
-            x[:, 0] += qq[:, 0] - h * qq[:, 3]
-            x[:, 1] += qq[:, 1] + h * qq[:, 2]
-            x[:, 2:] += np.column_stack([np.zeros(n), qq[:, 2:]])
-            return x
-
-        def residual(qq: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-            x = features(qq)
-            w = _call(response, x)
-            mgx, mgy = grip_moments(x, w, grip)
-            load = np.column_stack([w[:, 0], w[:, 1], mgx, mgy])
-            return x, w, (k * qq + load) / tol
-
-        x, w, r = residual(q)
-        evals = n
-        for fallback in (back, np.zeros((n, 4))):  # off the wall: fall back
-            off = _off_wall(q, w)
-            if not off.any():
-                break
-            q[off] = fallback[off]
-            x2, w2, r2 = residual(q)
-            evals += n
-            x[off], w[off], r[off] = x2[off], w2[off], r2[off]
-        merit = np.einsum("ij,ij->i", r, r)
-        conv = np.abs(r).max(axis=1) <= 1.0
-        t = np.ones(n)
-        fresh = np.zeros(n, dtype=bool)  # the Jacobian was evaluated at the current point
-        gave_up = np.zeros(n, dtype=bool)
-        iters = np.zeros(n, dtype=np.int64)
-        for _ in range(self.max_iter):
-            act = ~conv & ~gave_up
-            if not act.any():
-                break
-            iters[act] += 1
-            need = act & ~have
-            if need.any():
-                for j in range(4):
-                    qj = q.copy()
-                    qj[:, j] += holder_kernel.FD_STEP[j]
-                    rj = residual(qj)[2]
-                    jac[need, :, j] = (rj[need] - r[need]) / (holder_kernel.FD_STEP[j] / scale[j])
-                evals += 4 * n
-                have[need] = fresh[need] = True
-            step = np.zeros((n, 4))
-            step[act] = _solve4_rows(jac[act], -r[act])
-            qt = q + t[:, None] * step * scale
-            xt, wt, rt = residual(qt)
-            evals += n
-            off = act & _off_wall(qt, wt)  # no equilibrium there: no deflection, or back
-            if off.any():
-                qt[off] = 0.0
-                x0, w0, r0 = residual(qt)
-                evals += n
-                xt[off], wt[off], rt[off] = x0[off], w0[off], r0[off]
-            mt = np.einsum("ij,ij->i", rt, rt)
-            mt[off & (np.abs(wt) > 0.0).any(axis=1)] = np.inf
-            acc = act & (mt < (1.0 - holder_kernel.ARMIJO * t) * merit)  # False for NaN
-            rej = act & ~acc
-            if acc.any():
-                dz = (qt[acc] - q[acc]) / scale
-                jac[acc] = _broyden(jac[acc], dz, rt[acc] - r[acc])
-                have[acc & (mt > holder_kernel.SLOW * merit)] = False  # slow: refresh next time
-                q[acc], x[acc], w[acc] = qt[acc], xt[acc], wt[acc]
-                r[acc], merit[acc] = rt[acc], mt[acc]
-                t[acc] = 1.0
-                fresh[acc] = False
-            # a fresh Jacobian's step failed: halve it; a stale one: refresh the Jacobian
-            damp = rej & fresh
-            t[damp] *= 0.5
-            gave_up |= damp & (t < holder_kernel.T_MIN)
-            have[rej & ~fresh] = False
-            conv = np.abs(r).max(axis=1) <= 1.0
-        return x, w, conv, evals, int(iters.max(initial=0))
-
-
-def _off_wall(q: FloatArray, w: FloatArray) -> BoolArray:
-    """Rows that touch nothing (an exactly zero wrench) with the holder deflected: never an
-    equilibrium, and a region where the Jacobian (the holder alone) knows nothing of the wall."""
-    return np.asarray((w == 0.0).all(axis=1) & (q != 0.0).any(axis=1))
-
-
-def _call(response: Response, x: FloatArray) -> FloatArray:
-    w = np.asarray(response(x), dtype=float)
-    if w.shape != x.shape:
-        raise InputError("response", f"an array of shape {w.shape}", f"shape {x.shape}")
-    return w
-
-
-def _solve4_rows(jac: FloatArray, b: FloatArray) -> FloatArray:
-    """Solve each row's 4×4 system; a singular or non-finite row takes the step ``b`` (the
-    Newton step of the holder alone: J = I in scaled units)."""
-    s = np.empty_like(b)
-    for i in range(len(b)):
-        try:
-            s[i] = np.linalg.solve(jac[i], b[i])
-        except np.linalg.LinAlgError:
-            s[i] = b[i]
-    bad = ~np.isfinite(s).all(axis=1)
-    s[bad] = b[bad]
-    return s
-
-
-def _broyden(jac: FloatArray, dz: FloatArray, dr: FloatArray) -> FloatArray:
-    """Broyden's ("good") rank-one update per row: J += (dr - J dz) dz^T / (dz^T dz)."""
-    den = np.einsum("ij,ij->i", dz, dz)
-    resid = dr - np.einsum("ijk,ik->ij", jac, dz)
-    upd = resid[:, :, None] * dz[:, None, :] / np.where(den > 0, den, np.inf)[:, None, None]
-    out = jac + upd
-    bad = ~np.isfinite(out).all(axis=(1, 2))
-    out[bad] = jac[bad]
-    return np.asarray(out, dtype=float)
+        return holder_batched.solve_rows(xr, h, q, back, self._jac, self._have, response, grip,
+                                         self._k, self._tol, self.max_iter)  # fmt: skip
 
 
 def _squeeze(e: Equilibrium) -> Equilibrium:

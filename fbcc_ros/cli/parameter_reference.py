@@ -1,6 +1,6 @@
 """Writes docs/parameters.md, the parameter reference, from the nodes' tables (the one source).
 
-    python -m fbcc_ros.nodes.reference [OUT.md]
+    python -m fbcc_ros.cli.parameter_reference [OUT.md]
 
 A test checks that the committed file is what this prints, so the reference cannot go stale.
 """
@@ -36,7 +36,7 @@ def markdown() -> str:
     lines = [
         "# Parameter reference",
         "",
-        "Generated from the nodes' parameter tables by `python -m fbcc_ros.nodes.reference`;",
+        "Generated from the nodes' parameter tables by `python -m fbcc_ros.cli.parameter_reference`;",
         "do not edit by hand. `config/<node>.yaml` holds every key with its default;",
         "`ros2 param describe` shows the same descriptions at runtime. *writable*: may be",
         "changed while the node runs (`ros2 param set`); the others are read-only.",
