@@ -36,6 +36,7 @@ from fbcc_ros.bag.reader import Bag
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.control.phase import Phase
 from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.files import read_text
 from fbcc_ros.pipeline import compensation, controller, kinematics
 from fbcc_ros.pipeline.parameters import flatten, resolve
 from fbcc_ros.ros.cdr import decode_wrench
@@ -92,9 +93,9 @@ def node_parameters(bag_path: Path, files: Sequence[Path] = ()) -> dict[str, dic
     given: dict[str, dict[str, Any]] = {}
     for file in files:
         try:
-            doc = yaml.safe_load(Path(file).read_text())
-        except (OSError, yaml.YAMLError) as exc:
-            raise InputError("--params", str(file), f"a readable YAML file ({exc})") from exc
+            doc = yaml.safe_load(read_text(file, "--params"))
+        except yaml.YAMLError as exc:
+            raise InputError("--params", str(file), f"a YAML file ({exc})") from None
         if not isinstance(doc, dict):
             raise InputError("--params", str(file), "YAML of node_name: ros__parameters: ...")
         for node, body in doc.items():

@@ -16,7 +16,7 @@ import numpy as np
 
 from fbcc_ros.core.compensation.compensator import Compensator, SensorSetup
 from fbcc_ros.core.compensation.payload import Payload
-from fbcc_ros.core.errors import FbccError
+from fbcc_ros.core.errors import FbccError, command
 from fbcc_ros.core.kinematics.cell import CellKinematics, aligned_hole_at, follow
 from fbcc_ros.core.kinematics.ik import solve_ik
 from fbcc_ros.core.kinematics.robot import RobotModel
@@ -299,6 +299,7 @@ def _line(figure: str, measured: str, target: str, ratio: float) -> None:
     print(f"{figure:46s} {measured:>12s} {target:>12s} {ratio:7.2f}")
 
 
+@command("fbcc-bench")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="fbcc-bench", description=__doc__.splitlines()[0])
     parser.add_argument("--short", action="store_true", help="few repetitions (CI smoke run)")

@@ -40,7 +40,7 @@ from fbcc_ros.core.compensation.payload import (
     calibrate,
     payload_wrench,
 )
-from fbcc_ros.core.errors import FbccError, InputError
+from fbcc_ros.core.errors import FbccError, InputError, command
 from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel, pose
 
 WRENCH = ("fx", "fy", "fz", "tx", "ty", "tz")
@@ -96,7 +96,13 @@ def motions_from_data(
 ) -> list[Motion]:
     """The sensor's motion at each sample, from the columns the module doc lists."""
     if robot is None:
-        rotations = Rotation.from_quat(_take(columns, QUATERNION)).as_matrix()
+        quats = _take(columns, QUATERNION)
+        norms = np.linalg.norm(quats, axis=1)
+        if not (norms > 1e-6).all():  # a quaternion of (almost) zero norm is no rotation
+            row = int(np.argmin(norms))
+            raise InputError(f"quaternion of sample {row}", quats[row].tolist(),
+                             "(qx, qy, qz, qw) of non-zero norm")  # fmt: skip
+        rotations = Rotation.from_quat(quats).as_matrix()
         if not dynamic:
             return [Motion.at_rest(r) for r in rotations]
         m = _take(columns, MOTION)
@@ -142,6 +148,7 @@ def _plot(fit: Calibration, motions: list[Motion], wrenches: np.ndarray, path: P
     plt.close(fig)
 
 
+@command("fbcc-calibrate")
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:

@@ -31,7 +31,7 @@ import numpy as np
 
 from fbcc_ros.cli.common import out_dir
 from fbcc_ros.core.contact.model import FEATURE_NAMES
-from fbcc_ros.core.errors import FbccError
+from fbcc_ros.core.errors import FbccError, command
 from fbcc_ros.core.kinematics.cell import CellKinematics, FollowResult, aligned_hole_at, follow
 from fbcc_ros.core.kinematics.ik import IkError, solve_ik
 from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel, Tool, pose
@@ -114,6 +114,7 @@ def _plot(
     plt.close(fig)
 
 
+@command("fbcc-kinematics")
 def main(argv: list[str] | None = None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)

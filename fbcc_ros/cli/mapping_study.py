@@ -24,6 +24,7 @@ import matplotlib.pyplot as plt
 from fbcc_ros.cli.common import out_dir
 from fbcc_ros.core.contact.mapping_study import classify_study
 from fbcc_ros.core.contact.segmentation import STATES
+from fbcc_ros.core.errors import command
 from fbcc_ros.core.paper import paper_pair
 
 FRICTION_SPREADS = (0.0, 0.1, 0.5)
@@ -113,6 +114,7 @@ def draw(results: dict[str, Any], path: Path) -> None:
     plt.close(fig)
 
 
+@command("fbcc-mapping-study")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="fbcc-mapping-study", description=__doc__.splitlines()[0]
@@ -125,6 +127,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.samples < 100:
         parser.error(f"--samples {args.samples}: expected at least 100")
+    if args.seed < 0:
+        parser.error(f"--seed {args.seed}: expected an integer >= 0")
     out = out_dir(parser, args.out)
     results = run_study(args.samples, args.seed)
     (out / "mapping_study.json").write_text(json.dumps(results, indent=2))

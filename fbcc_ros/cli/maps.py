@@ -32,6 +32,7 @@ from fbcc_ros.core.contact.segmentation import (
     response_state,
     tilt_boundary_angle,
 )
+from fbcc_ros.core.errors import command
 from fbcc_ros.core.paper import paper_pair
 
 DEPTHS = (2e-3, 5e-3, 10e-3)
@@ -227,6 +228,7 @@ def draw_response_states(out: Path, n: int = 600, seed: int = 0) -> Path:
     return _save(fig, out / "response_states.png", rect=(0, 0, 1, 0.96))
 
 
+@command("fbcc-maps")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="fbcc-maps", description=__doc__.splitlines()[0])
     parser.add_argument("--out", default="out/maps", help="output folder (created)")

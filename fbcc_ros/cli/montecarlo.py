@@ -47,7 +47,7 @@ from fbcc_ros.cli.common import out_dir
 from fbcc_ros.cli.sim import SUMMARY_HEADER, summary_line, write_run
 from fbcc_ros.core.contact.model import FEATURE_NAMES
 from fbcc_ros.core.control.laws import LAWS
-from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.errors import ConfigError, command
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.holder import Holder
 from fbcc_ros.core.sim.montecarlo import (
@@ -264,6 +264,7 @@ def replay(parser: argparse.ArgumentParser, sc: scenario_io.Scenario, laws: list
     return 0
 
 
+@command("fbcc-montecarlo")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="fbcc-montecarlo", description=__doc__.split("\n\n")[0])
     parser.add_argument("scenario", type=Path, metavar="SCENARIO.yaml")

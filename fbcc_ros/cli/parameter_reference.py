@@ -10,6 +10,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from fbcc_ros.core.errors import command
 from fbcc_ros.nodes import (
     dynamic_compensation,
     fbcc_controller,
@@ -36,7 +37,8 @@ def markdown() -> str:
     lines = [
         "# Parameter reference",
         "",
-        "Generated from the nodes' parameter tables by `python -m fbcc_ros.cli.parameter_reference`;",
+        "Generated from the nodes' parameter tables by "
+        "`python -m fbcc_ros.cli.parameter_reference`;",
         "do not edit by hand. `config/<node>.yaml` holds every key with its default;",
         "`ros2 param describe` shows the same descriptions at runtime. *writable*: may be",
         "changed while the node runs (`ros2 param set`); the others are read-only.",
@@ -58,6 +60,7 @@ def markdown() -> str:
     return "\n".join(lines) + "\n"
 
 
+@command("parameter_reference")
 def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
     out = Path(args[0]) if args else Path("docs/parameters.md")

@@ -42,7 +42,7 @@ import numpy as np
 from fbcc_ros.bag.reader import Bag, read_bag
 from fbcc_ros.cli.sim_plots import Series, draw_planes, draw_trajectories
 from fbcc_ros.core.contact.model import FEATURE_NAMES, RESPONSE_NAMES, PegHole
-from fbcc_ros.core.errors import FbccError
+from fbcc_ros.core.errors import FbccError, InputError, command
 
 NEEDED = {"/fbcc/features": "geometry_msgs/msg/PoseStamped",
           "/ft_sensor/compensated": "geometry_msgs/msg/WrenchStamped"}  # fmt: skip
@@ -248,7 +248,10 @@ def report(bag_path: Path, out: Path | None, scenario: Path | None) -> dict[str,
     nominal = nominal_geometry(bag, scenario)
     s = session(bag, nominal)
     out = out or bag.path.parent / "report"
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError("--out", str(out), f"a folder ({exc.strerror})") from None
     series = [Series("measured", s.t, s.features, s.response, nominal)]
     if s.truth is not None:
         series.append(Series("true (mock)", *s.truth, nominal))
@@ -269,6 +272,7 @@ def report(bag_path: Path, out: Path | None, scenario: Path | None) -> dict[str,
     return summary
 
 
+@command("fbcc-report")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="fbcc-report", description=__doc__.splitlines()[0])
     parser.add_argument("bag", type=Path, help="bag folder or .mcap file")

@@ -29,7 +29,7 @@ import numpy as np
 from fbcc_ros.cli.common import out_dir
 from fbcc_ros.cli.sim_plots import Series, draw_planes, draw_trajectories
 from fbcc_ros.core.contact.model import FEATURE_NAMES, RESPONSE_NAMES
-from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.errors import ConfigError, command
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import SimResult, run_scenario
 
@@ -96,6 +96,7 @@ def summary_line(name: str, s: dict[str, Any]) -> str:
     )
 
 
+@command("fbcc-sim")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="fbcc-sim", description=__doc__.split("\n\n")[0])
     parser.add_argument("scenarios", nargs="+", type=Path, metavar="SCENARIO.yaml")

@@ -8,8 +8,10 @@ Physical outcomes (no contact, jamming, a force limit) are states, never excepti
 from __future__ import annotations
 
 import difflib
+import functools
 import math
-from collections.abc import Sequence
+import sys
+from collections.abc import Callable, Sequence
 from typing import Any
 
 
@@ -61,3 +63,26 @@ def closest(name: str, names: Sequence[str]) -> str:
     else ``""``: the start of an error's ``allowed``."""
     match = difflib.get_close_matches(name, list(names), n=1)
     return f"did you mean {match[0]!r}? " if match else ""
+
+
+def command(prog: str) -> Callable[[Callable[..., int]], Callable[..., int]]:
+    """Decorates a command-line tool's ``main``: bad input (an :class:`FbccError` from anywhere
+    in it) or a file the system refuses (an ``OSError``: unwritable, a folder where a file was
+    meant, disk full) ends in one line on stderr, ``prog: what``, and exit status 2, never a
+    traceback."""
+
+    def wrap(main: Callable[..., int]) -> Callable[..., int]:
+        @functools.wraps(main)
+        def guarded(*args: Any, **kwargs: Any) -> int:
+            try:
+                return main(*args, **kwargs)
+            except FbccError as exc:
+                print(f"{prog}: {exc}", file=sys.stderr)
+            except OSError as exc:
+                where = f"{exc.filename}: " if exc.filename else ""
+                print(f"{prog}: {where}{exc.strerror or exc}", file=sys.stderr)
+            return 2
+
+        return guarded
+
+    return wrap

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from fbcc_ros.bag.writer import check_new_folder
-from fbcc_ros.core.errors import FbccError, InputError
+from fbcc_ros.core.errors import FbccError, InputError, command
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import score
 from fbcc_ros.harness.cell_run import CellRun, NodeSpec
@@ -256,6 +256,7 @@ def run_cell(
     return summary
 
 
+@command("fbcc_bringup")
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:

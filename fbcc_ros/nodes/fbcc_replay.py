@@ -38,7 +38,7 @@ import numpy as np
 
 from fbcc_ros.bag.reader import Bag, read_bag
 from fbcc_ros.core.contact.model import FEATURE_NAMES
-from fbcc_ros.core.errors import FbccError, InputError
+from fbcc_ros.core.errors import FbccError, InputError, command
 
 #: Offline replay of a bag with its own parameters reproduces its commands within this, in m
 #: (offsets, depth) and rad (tilts): float rounding only. The committed test bag replays to
@@ -203,6 +203,7 @@ def offline(bag: Bag, params: list[Path], out: Path | None) -> int:
     return 1 if compared and not reproduced and not params else 0
 
 
+@command("fbcc_replay")
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     ros_args: list[str] = []

@@ -34,12 +34,37 @@ class Param:
     choices: tuple[str, ...] = ()
 
     def check(self, value: Any, where: str = "") -> None:
-        """Raises :class:`ConfigError` for a value outside the choices or the range."""
+        """Raises :class:`ConfigError` for a value of another type than the default's (a number
+        for a floating-point default), outside the choices or outside the range."""
         name = f"{where}.{self.name}" if where else self.name
+        if not _same_kind(value, self.default):
+            raise ConfigError(name, value, _kind(self.default))
         if self.choices and value not in self.choices:
             raise ConfigError(name, value, f"one of {list(self.choices)}")
         if self.low is not None and self.high is not None and not self.low <= value <= self.high:
             raise ConfigError(name, value, f"within [{self.low}, {self.high}] {self.unit}".strip())
+
+
+def _same_kind(value: Any, default: Any) -> bool:
+    """Whether ``value`` has the type rclpy would accept for a parameter declared with
+    ``default`` (a float parameter also takes an integer here, as YAML writes 20 for 20.0)."""
+    if isinstance(default, list):
+        if not isinstance(value, list):
+            return False
+        return not default or all(_same_kind(v, default[0]) for v in value)
+    if isinstance(default, bool) or isinstance(value, bool):
+        return isinstance(value, bool) and isinstance(default, bool)
+    if isinstance(default, float):
+        return isinstance(value, (int, float))
+    return isinstance(value, type(default))
+
+
+def _kind(default: Any) -> str:
+    if isinstance(default, list):
+        return f"a list of {_kind(default[0]).removeprefix('a ')}s" if default else "a list"
+    names = {bool: "a boolean (true or false)", int: "an integer", float: "a number",
+             str: "a string"}  # fmt: skip
+    return names.get(type(default), f"a {type(default).__name__}")
 
 
 def unknown_names(stage: str, table: Sequence[Param], names: Sequence[str]) -> None:

@@ -50,6 +50,7 @@ from fbcc_ros.core.compensation.payload import (
 )
 from fbcc_ros.core.compensation.wrench import response_from_wrench, transfer_matrix, virtual_wrench
 from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.files import read_text
 from fbcc_ros.core.filters import LowPass, dead_band
 from fbcc_ros.core.kinematics.robot import RobotModel
 
@@ -351,7 +352,7 @@ def load_calibration(path: str | Path) -> tuple[Payload, FloatArray]:
     """Payload and bias from a file :func:`calibration_yaml` wrote (or a node parameter file
     with the same keys)."""
     try:
-        data: Any = yaml.safe_load(Path(path).read_text())
+        data: Any = yaml.safe_load(read_text(path, "calibration file"))
         params = data[NODE_NAME]["ros__parameters"]
         payload = params["payload"]
         inertia = np.asarray(payload.get("inertia", [0.0] * 9), dtype=float).reshape(3, 3)

@@ -43,6 +43,7 @@ from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.control.laws import LAWS, Insertion, Params, params_from_mapping
 from fbcc_ros.core.errors import ConfigError, closest
+from fbcc_ros.core.files import read_text
 from fbcc_ros.core.sim.holder import Holder
 
 #: Plausibility ranges (SI): a value outside smells of mm, degrees or GPa given by mistake.
@@ -285,12 +286,7 @@ _Loader.add_implicit_resolver(
 def load(path: str | Path) -> Scenario:
     """Read and validate a scenario YAML file."""
     p = Path(path)
-    try:
-        text = p.read_text()
-    except OSError as exc:
-        raise ConfigError(
-            "scenario file", str(p), f"a readable YAML file ({exc.strerror})"
-        ) from None
+    text = read_text(p, "scenario file")
     try:
         data = yaml.load(text, Loader=_Loader)
     except yaml.YAMLError as exc:

@@ -104,8 +104,12 @@ def test_numbers_given_as_text_get_a_hint() -> None:
 
 
 def test_missing_and_malformed_files(tmp_path: Path) -> None:
-    with pytest.raises(ConfigError, match="readable YAML file"):
+    with pytest.raises(ConfigError, match=r"a readable file \(No such file"):
         load(tmp_path / "nope.yaml")
+    latin1 = tmp_path / "latin1.yaml"
+    latin1.write_bytes("name: caf\xe9\n".encode("latin-1"))
+    with pytest.raises(ConfigError, match="UTF-8 text"):
+        load(latin1)
     bad = tmp_path / "bad.yaml"
     bad.write_text("geometry: [1, 2\n")
     with pytest.raises(ConfigError, match="valid YAML"):
