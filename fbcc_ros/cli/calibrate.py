@@ -40,7 +40,7 @@ from fbcc_ros.core.compensation.payload import (
     calibrate,
     payload_wrench,
 )
-from fbcc_ros.core.errors import FbccError, InputError, command
+from fbcc_ros.core.errors import InputError, command
 from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel, pose
 
 WRENCH = ("fx", "fy", "fz", "tx", "ty", "tz")
@@ -63,6 +63,25 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--max-condition", type=float, default=MAX_CONDITION)
     parser.add_argument("--plot", type=Path, help="PNG of the residual per sample")
     return parser
+
+
+#: Beyond these the fit is no payload of an arm's wrist (the arms modelled carry 3-14 kg): the
+#: data's units are the likely cause (forces in mN, torques in N mm).
+PLAUSIBLE_MASS_KG = 50.0
+PLAUSIBLE_COM_M = 0.5
+
+
+def implausible(fit: Calibration) -> list[str]:
+    """What in a fit no wrist payload would give, and the likely cause."""
+    out = []
+    if fit.payload.mass > PLAUSIBLE_MASS_KG:
+        out.append(f"mass {fit.payload.mass:.4g} kg is more than {PLAUSIBLE_MASS_KG:g} kg: "
+                   "are the forces in N (not mN)?")  # fmt: skip
+    com = float(np.linalg.norm(fit.payload.com))
+    if com > PLAUSIBLE_COM_M:
+        out.append(f"centre of mass {com:.4g} m from the sensor is more than {PLAUSIBLE_COM_M:g} m"
+                   ": are the torques in N m (not N mm) and the forces in N?")  # fmt: skip
+    return out
 
 
 def read_columns(path: Path) -> dict[str, np.ndarray]:
@@ -151,17 +170,13 @@ def _plot(fit: Calibration, motions: list[Motion], wrenches: np.ndarray, path: P
 @command("fbcc-calibrate")
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    try:
-        columns = read_columns(args.data)
-        robot = None
-        if args.robot:
-            robot = RobotModel.from_name(args.robot)
-            robot.add_frame(SENSOR_FRAME, pose(args.sensor_xyz, args.sensor_rpy))
-        motions = motions_from_data(columns, args.dynamic, robot)
-        wrenches = _take(columns, WRENCH)
-    except FbccError as exc:
-        print(f"fbcc-calibrate: {exc}", file=sys.stderr)
-        return 2
+    columns = read_columns(args.data)
+    robot = None
+    if args.robot:
+        robot = RobotModel.from_name(args.robot)
+        robot.add_frame(SENSOR_FRAME, pose(args.sensor_xyz, args.sensor_rpy))
+    motions = motions_from_data(columns, args.dynamic, robot)
+    wrenches = _take(columns, WRENCH)
     try:
         fit = calibrate(motions, wrenches, args.dynamic, args.max_condition)
     except InputError as exc:
@@ -179,6 +194,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     if args.dynamic:
         report += f"\ninertia about the centre of mass {np.round(p.inertia, 6).tolist()} kg m^2"
+    for warning in implausible(fit):
+        report += f"\nWARNING: {warning}"
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(calibration_yaml(fit, report))
     if args.plot:

@@ -59,6 +59,26 @@ def test_static_csv_with_quaternions(tmp_path: Path, capsys: pytest.CaptureFixtu
     assert "static fit of 12 samples" in report and "residual rms" in report
     assert "# residual rms" in out.read_text()  # the quality travels with the file
     assert plot.stat().st_size > 10_000
+    assert "WARNING" not in report
+
+
+UNITS = [((1e3, 1.0), "forces in N (not mN)"), ((1.0, 1e3), "torques in N m (not N mm)")]
+
+
+@pytest.mark.parametrize(("scale", "warned"), UNITS)
+def test_readings_in_other_units_are_fitted_and_warned(
+    scale: tuple[float, float], warned: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The same poses with forces in mN (a 800 kg payload) or torques in N mm (its centre of
+    mass 60 m away): the fit is written, and the report and the file say what looks wrong."""
+    rotations = Rotation.random(12, random_state=4)
+    readings = _readings([Motion.at_rest(r) for r in rotations.as_matrix()], seed=5)
+    readings[:, :3] *= scale[0]
+    readings[:, 3:] *= scale[1]
+    data, out = tmp_path / "poses.csv", tmp_path / "payload.yaml"
+    _write_quaternion_csv(data, rotations, readings)
+    assert calibrate.main([str(data), "--out", str(out)]) == 0
+    assert warned in capsys.readouterr().out and warned in out.read_text()
 
 
 @pytest.fixture(scope="module")
