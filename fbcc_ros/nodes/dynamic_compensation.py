@@ -35,6 +35,7 @@ class DynamicCompensationNode(Node):
         super().__init__("dynamic_compensation", **kwargs)
         values = declare(self, TABLE, lambda v: self.stage.apply(v))
         self.stage = CompensationStage(values)
+        self._said: set[str] = set()  # the kinds of rejection logged
         self.out_compensated = Outlet(
             self.create_publisher(WrenchStamped, topics.COMPENSATED_WRENCH, 10))
         self.pub_bias = self.create_publisher(WrenchStamped, topics.BIAS, topics.PHASE_QOS)
@@ -64,9 +65,12 @@ class DynamicCompensationNode(Node):
             return
         self.stage.joints(stamp, q, dq)
 
+    def now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
     def on_raw(self, data: bytes) -> None:
         try:
-            out = self.stage.reading(*wrench_from_cdr(data))
+            out = self.stage.reading(*wrench_from_cdr(data), received=self.now())
         except FbccError as exc:
             self.get_logger().error(str(exc), throttle_duration_sec=1.0)
             return
@@ -78,7 +82,7 @@ class DynamicCompensationNode(Node):
         except FbccError as exc:
             self.get_logger().warn(f"external torques rejected: {exc}", throttle_duration_sec=1.0)
             return
-        self._publish(self.stage.torques(stamp, tau))
+        self._publish(self.stage.torques(stamp, tau, received=self.now()))
 
     def _publish_bias(self, stamp: float) -> None:
         """The bias in use, latched: the configured one at start-up, the measured one with the
@@ -90,8 +94,11 @@ class DynamicCompensationNode(Node):
         if out is None:
             counts = self.stage.comp.counts
             rejected = {k: v for k, v in counts.items() if k not in ("accepted", "taring") and v}
-            if rejected:
-                self.get_logger().warn(f"samples rejected: {rejected}", throttle_duration_sec=2.0)
+            # each kind of rejection logged once, when it first happens; /diagnostics keeps
+            # the counts (a sensor catching up would otherwise log every period)
+            if set(rejected) - self._said:
+                self.get_logger().warn(f"samples rejected: {rejected} (counts on /diagnostics)")
+                self._said |= set(rejected)
             return
         if self.stage.just_tared:
             self._publish_bias(out.stamp)

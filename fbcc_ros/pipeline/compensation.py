@@ -115,14 +115,17 @@ class CompensationStage:
         """The arm's joint state (wrist placement: where the sensor and payload are)."""
         self.comp.joints(stamp, q, dq)
 
-    def reading(self, stamp: float, frame: str, wrench: ArrayLike) -> Compensated | None:
+    def reading(self, stamp: float, frame: str, wrench: ArrayLike, received: float | None = None
+                ) -> Compensated | None:  # fmt: skip
         """One raw reading (sensor frame) → the compensated wrench; None while taring and for a
-        rejected sample (counted in ``comp.counts``)."""
-        return self._output(self.comp.reading(stamp, frame, wrench))
+        rejected sample (counted in ``comp.counts``). ``received``: its arrival time, when
+        known (a stamp far ahead of it is refused)."""
+        return self._output(self.comp.reading(stamp, frame, wrench, received))
 
-    def torques(self, stamp: float, external_torques: ArrayLike) -> Compensated | None:
+    def torques(self, stamp: float, external_torques: ArrayLike, received: float | None = None
+                ) -> Compensated | None:  # fmt: skip
         """The virtual sensor: external joint torques → the compensated wrench."""
-        return self._output(self.comp.joint_torques(stamp, external_torques))
+        return self._output(self.comp.joint_torques(stamp, external_torques, received))
 
     def _output(self, out: Compensated | None) -> Compensated | None:
         self.just_tared = out is not None and self._untared

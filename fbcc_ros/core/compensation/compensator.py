@@ -140,6 +140,11 @@ class Compensated:
     response: FloatArray
 
 
+#: How far [s] a sample's stamp may lie ahead of its arrival (clocks of two machines disagree by
+#: milliseconds); a stamp further ahead is refused, not allowed to make later samples look old.
+MAX_STAMP_AHEAD = 0.05
+
+
 class Compensator:
     """The dynamic compensation of one sensor; see the module doc for the pipeline.
 
@@ -155,6 +160,7 @@ class Compensator:
             "accepted": 0,
             "non_finite": 0,
             "out_of_order": 0,
+            "future_stamp": 0,
             "no_joint_state": 0,
             "joint_state_rejected": 0,
             "taring": 0,
@@ -211,8 +217,12 @@ class Compensator:
         self._joints = (stamp, q_, dq_, ddq)
         return True
 
-    def reading(self, stamp: float, frame_id: str, wrench: ArrayLike) -> Compensated | None:
+    def reading(
+        self, stamp: float, frame_id: str, wrench: ArrayLike, received: float | None = None
+    ) -> Compensated | None:
         """Compensates one raw reading of the physical sensor, or returns None (counted).
+        ``received``: when it arrived, on the clock of the stamps (a sample stamped more than
+        :data:`MAX_STAMP_AHEAD` later is refused).
 
         Raises:
             InputError: The reading's frame is not the configured sensor frame.
@@ -221,9 +231,11 @@ class Compensator:
             raise InputError(
                 "header.frame_id", frame_id, f"the configured sensor frame '{self.setup.frame}'"
             )
-        return self._process(stamp, wrench)
+        return self._process(stamp, wrench, received)
 
-    def joint_torques(self, stamp: float, external_torques: ArrayLike) -> Compensated | None:
+    def joint_torques(
+        self, stamp: float, external_torques: ArrayLike, received: float | None = None
+    ) -> Compensated | None:
         """Compensates the virtual sensor's wrench from the arm's external joint torques.
 
         ``tau_ext = J^T w`` with ``w`` the wrench on the arm at the sensor frame (KUKA's and
@@ -244,9 +256,14 @@ class Compensator:
         except InputError:
             self.counts["non_finite"] += 1
             return None
-        return self._process(stamp, w_sensor)
+        return self._process(stamp, w_sensor, received)
 
-    def _process(self, stamp: float, wrench: ArrayLike) -> Compensated | None:
+    def _process(self, stamp: float, wrench: ArrayLike, received: float | None
+                 ) -> Compensated | None:  # fmt: skip
+        if received is not None and stamp > received + MAX_STAMP_AHEAD:
+            # a clock ahead of ours: taken, its stamp would refuse every later sample as old
+            self.counts["future_stamp"] += 1
+            return None
         if not math.isfinite(stamp) or stamp <= self._last_stamp:
             self.counts["out_of_order"] += 1
             return None

@@ -219,10 +219,26 @@ def test_rejected_samples_are_counted_not_propagated() -> None:
         "accepted": 1,
         "non_finite": 2,
         "out_of_order": 2,
+        "future_stamp": 0,
         "no_joint_state": 0,
         "joint_state_rejected": 0,
         "taring": 0,
     }
+
+
+def test_a_sample_stamped_in_the_future_is_refused_and_blocks_nothing() -> None:
+    """A reading stamped an hour ahead of its arrival (a sensor clock gone wrong): refused and
+    counted; the readings after it, stamped right, go through. Taken, its stamp would have made
+    every later reading look old."""
+    comp = Compensator(SensorSetup())
+    assert comp.reading(1.000, "ft_sensor", np.ones(6), received=1.0005) is not None
+    assert comp.reading(3601.0, "ft_sensor", np.ones(6), received=1.0015) is None
+    late = [comp.reading(1.001 + 1e-3 * k, "ft_sensor", np.ones(6), received=1.0025 + 1e-3 * k)
+            for k in range(5)]  # fmt: skip
+    assert all(out is not None for out in late)
+    assert comp.counts["future_stamp"] == 1 and comp.counts["accepted"] == 6
+    # ahead by less than MAX_STAMP_AHEAD (two machines' clocks): taken
+    assert comp.reading(1.03, "ft_sensor", np.ones(6), received=1.0) is not None
 
 
 def test_tare_measures_the_bias_before_contact() -> None:
