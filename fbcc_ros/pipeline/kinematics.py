@@ -4,6 +4,10 @@ commanded peg pose in {H} → joint positions (the TCP solution, Fig. 7).
 The pose, not the features, crosses the stage's boundary: the features need the peg's radius,
 which is the controller's nominal one (:mod:`fbcc_ros.pipeline.controller`), so this stage has
 no radius of its own. The commanded pose is reached with the peg's current spin about its axis.
+
+The IK starts from the measured joints, never from its own last command: each command is then
+within one period's reach (the joint velocity limits) of where the arm is, whatever happened
+before (a restarted node, a command the arm did not follow).
 """
 
 from __future__ import annotations
@@ -54,7 +58,6 @@ class KinematicsStage:
         cell: The robot, the hole and the IK.
         dt: The control period [s]: a command must be reachable within it.
         q: The last measured joints (None before the first).
-        q_command: The last commanded joints (None before the first).
     """
 
     def __init__(self, values: dict[str, Any]) -> None:
@@ -62,7 +65,6 @@ class KinematicsStage:
         self.cell = CellKinematics(robot, hole, None)
         self.dt = 1.0 / values["rate_hz"]
         self.q: FloatArray | None = None
-        self.q_command: FloatArray | None = None
 
     def preload(self) -> None:
         """Load the compiled IK step now, not in the first period."""
@@ -79,12 +81,9 @@ class KinematicsStage:
         return peg
 
     def command(self, peg_in_hole: pin.SE3) -> TcpCommand | None:
-        """The joints that place the peg at ``peg_in_hole`` within one period, from the last
-        command (the measured joints before the first); None before any joints were measured.
-        Raises :class:`~fbcc_ros.core.kinematics.ik.IkError` for a pose it cannot reach."""
+        """The joints that place the peg at ``peg_in_hole`` within one period's reach of the
+        measured joints; None before any joints were measured. Raises
+        :class:`~fbcc_ros.core.kinematics.ik.IkError` for a pose it cannot reach."""
         if self.q is None:
             return None
-        start = self.q if self.q_command is None else self.q_command
-        solution = self.cell.pose_solution(peg_in_hole, start, self.dt)
-        self.q_command = solution.q
-        return solution
+        return self.cell.pose_solution(peg_in_hole, self.q, self.dt)

@@ -1,0 +1,36 @@
+"""The kinematics stage solves every command from the measured joints."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from fbcc_ros.core.kinematics.ik import IkError
+from fbcc_ros.pipeline.kinematics import TABLE, KinematicsStage
+from fbcc_ros.pipeline.parameters import resolve
+
+
+def test_each_command_is_within_one_period_of_the_measured_joints() -> None:
+    """The arm does not follow (its measured joints stay put) while the commands walk away
+    0.1 mm a period: each command the stage gives is within one period's reach of the measured
+    joints, and a pose beyond that reach is refused. Seeded from its own last command instead,
+    the commands would walk on with the target (each a period's reach from the one before)."""
+    stage = KinematicsStage(resolve("kinematics", TABLE, {}))
+    robot = stage.cell.robot
+    q_measured = robot.home.copy()
+    start = stage.joints(q_measured)
+    reach = robot.velocity_limit * stage.dt
+    given = 0
+    for k in range(1, 40):
+        target = start * pin.SE3(np.eye(3), np.array([1e-4 * k, 0.0, 0.0]))
+        try:
+            command = stage.command(target)
+        except IkError:
+            break
+        assert command is not None
+        assert np.all(np.abs(command.q - q_measured) <= reach * (1 + 1e-9))
+        given += 1
+    else:
+        pytest.fail("a target 4 mm from the arm was reached within one period")
+    assert given >= 2  # the near ones were solved
