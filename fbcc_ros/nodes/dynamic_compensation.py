@@ -17,6 +17,7 @@ import numpy as np
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
+from std_msgs.msg import String
 
 from fbcc_ros.core.compensation.compensator import Compensated
 from fbcc_ros.core.errors import FbccError
@@ -39,6 +40,7 @@ class DynamicCompensationNode(Node):
         self.out_compensated = Outlet(
             self.create_publisher(WrenchStamped, topics.COMPENSATED_WRENCH, 10))
         self.pub_bias = self.create_publisher(WrenchStamped, topics.BIAS, topics.PHASE_QOS)
+        self.pub_guard = self.create_publisher(String, topics.GUARD, topics.PHASE_QOS)
         self._publish_bias(self.get_clock().now().nanoseconds * 1e-9)
         sub = self.create_subscription  # raw: CDR bytes, decoded by fbcc_ros.ros.convert
         if self.stage.robot is not None:
@@ -91,6 +93,10 @@ class DynamicCompensationNode(Node):
         self.pub_bias.publish(wrench_to_cdr(comp.bias, comp.setup.frame, stamp))
 
     def _publish(self, out: Compensated | None) -> None:
+        if self.stage.just_tripped:
+            reason = f"wrench guard: {self.stage.comp.guard.reason}"
+            self.get_logger().error(reason)
+            self.pub_guard.publish(String(data=reason))
         if out is None:
             counts = self.stage.comp.counts
             rejected = {k: v for k, v in counts.items() if k not in ("accepted", "taring") and v}

@@ -54,7 +54,8 @@ class FbccControllerNode(Node):
         sub = self.create_subscription
         sub(WrenchStamped, topics.COMPENSATED_WRENCH, self.on_wrench, 10, raw=True)
         sub(PoseStamped, topics.FEATURES, self.on_features, 10, raw=True)
-        self.create_subscription(String, topics.KINEMATICS_STATUS, self.on_kinematics, 10)
+        self.create_subscription(String, topics.KINEMATICS_STATUS, self.on_fault, 10)
+        self.create_subscription(String, topics.GUARD, self.on_fault, topics.PHASE_QOS)
         self.create_service(Trigger, topics.START, self.on_start)
         self.create_service(Trigger, topics.ABORT, self.on_abort)
         self.create_timer(0.01, self.on_watchdog)
@@ -119,7 +120,8 @@ class FbccControllerNode(Node):
                 self.pub_state.publish(String(data=state))
         self._publish_phase()
 
-    def on_kinematics(self, msg: String) -> None:
+    def on_fault(self, msg: String) -> None:
+        """A fault another node reports (an unreachable command, a tripped wrench guard)."""
         self.sup.fault(msg.data)
         self._publish_phase()
 

@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike
 
 from fbcc_ros.core.compensation.compensator import Compensated, Compensator, SensorSetup
 from fbcc_ros.core.compensation.payload import Payload
+from fbcc_ros.core.compensation.wrench_guard import GuardLimits
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.kinematics.robot import pose
 from fbcc_ros.pipeline.kinematics import CELL, cell_from
@@ -48,6 +49,14 @@ TABLE = (
           10.0),
     Param("acceleration_lowpass_hz", 10.0, "low-pass of the differentiated joint "
           "accelerations (wrist payload inertia)", "Hz", 0.0, 10000.0),
+    Param("guard.force_limit", 300.0, "largest |f| of the contact wrench before any filter; "
+          "over it the guard trips", "N", 1.0, 5000.0),
+    Param("guard.moment_limit", 30.0, "largest |m| of the contact wrench about the {H} origin "
+          "before any filter", "N m", 0.01, 500.0),
+    Param("guard.sensor_range", [660.0, 60.0], "the sensor's rated range per component "
+          "[force, moment]: a raw reading beyond it is implausible", "N, N m"),
+    Param("guard.max_rate", [1.0e6, 1.0e5], "fastest plausible change of a raw component "
+          "[force, moment]", "N/s, N m/s"),
     *CELL,
 )  # fmt: skip
 
@@ -72,7 +81,14 @@ def setup_from(values: dict[str, Any], hole: pin.SE3) -> SensorSetup:
         acceleration_lowpass_hz=values["acceleration_lowpass_hz"],
         virtual_damping=values["virtual_damping"],
         tare_samples=values["tare_samples"],
+        guard=GuardLimits(values["guard.force_limit"], values["guard.moment_limit"],
+                          _pair(values["guard.sensor_range"]), _pair(values["guard.max_rate"])),
     )
+
+
+def _pair(value: Sequence[float]) -> tuple[float, float]:
+    """A [force, moment] parameter (its length is checked by the core's dataclass)."""
+    return tuple(float(v) for v in value)  # type: ignore[return-value]
 
 
 class CompensationStage:
@@ -83,6 +99,8 @@ class CompensationStage:
         robot: The arm (wrist placement) or None (under the hole).
         just_tared: True after the call that gave the first output of a tare: the bias is
             measured from then on.
+        just_tripped: True after the call in which the wrench guard tripped (its reason:
+            ``comp.guard.reason``); the stage passes nothing from then on.
     """
 
     def __init__(self, values: dict[str, Any]) -> None:
@@ -96,6 +114,8 @@ class CompensationStage:
         self.comp = Compensator(self.setup, self.robot)
         self._untared = self.setup.tare_samples > 0
         self.just_tared = False
+        self.just_tripped = False
+        self._tripped_said = False
 
     def apply(self, values: dict[str, Any]) -> None:
         """The runtime parameters (``lowpass_hz``, ``deadband``)."""
@@ -110,6 +130,7 @@ class CompensationStage:
             setup = dataclasses.replace(setup, bias=tuple(bias))
         self.comp = Compensator(setup, self.robot)
         self._untared = tare > 0
+        self._tripped_said = False
 
     def joints(self, stamp: float, q: ArrayLike, dq: ArrayLike | None = None) -> None:
         """The arm's joint state (wrist placement: where the sensor and payload are)."""
@@ -128,6 +149,8 @@ class CompensationStage:
         return self._output(self.comp.joint_torques(stamp, external_torques, received))
 
     def _output(self, out: Compensated | None) -> Compensated | None:
+        self.just_tripped = self.comp.guard.tripped and not self._tripped_said
+        self._tripped_said = self.comp.guard.tripped
         self.just_tared = out is not None and self._untared
         if self.just_tared:
             self._untared = False

@@ -74,6 +74,11 @@ CHANGED: dict[str, Any] = {
     "robot": "panda",
     "hole_from_home": False,
     "seed": 7,
+    # the guard: limits the recorded session stays within, tightened past it
+    "guard.force_limit": 1.0,
+    "guard.moment_limit": 0.01,
+    "guard.sensor_range": [10.0, 60.0],  # the fixture's weight alone reads 14.7 N
+    "guard.max_rate": [1.0, 1.0e5],
 }
 
 
@@ -122,7 +127,7 @@ def _compensation(values: dict[str, Any]) -> list[Any]:
                 result = _attempt(out, stage.reading, stamp, frame, wrench)
             if result is not None:
                 out.append(np.r_[result.stamp, result.wrench])
-    return [*out, stage.comp.counts, stage.comp.bias]
+    return [*out, stage.comp.counts, stage.comp.bias, stage.comp.guard.reason]
 
 
 def _kinematics(values: dict[str, Any]) -> list[Any]:

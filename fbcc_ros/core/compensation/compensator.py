@@ -49,6 +49,7 @@ from fbcc_ros.core.compensation.payload import (
     subtract,
 )
 from fbcc_ros.core.compensation.wrench import response_from_wrench, transfer_matrix, virtual_wrench
+from fbcc_ros.core.compensation.wrench_guard import GuardLimits, WrenchGuard
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.files import read_text
 from fbcc_ros.core.filters import LowPass, dead_band
@@ -101,6 +102,7 @@ class SensorSetup:
     acceleration_lowpass_hz: float = 10.0
     virtual_damping: float = 0.01
     tare_samples: int = 0
+    guard: GuardLimits = dataclasses.field(default_factory=GuardLimits)
 
     def __post_init__(self) -> None:
         if self.placement not in PLACEMENTS:
@@ -161,6 +163,7 @@ class Compensator:
             "non_finite": 0,
             "out_of_order": 0,
             "future_stamp": 0,
+            "guard": 0,
             "no_joint_state": 0,
             "joint_state_rejected": 0,
             "taring": 0,
@@ -172,6 +175,8 @@ class Compensator:
         self._lowpass = LowPass(setup.lowpass_hz)
         self._accel_lowpass = LowPass(setup.acceleration_lowpass_hz, "acceleration_lowpass_hz")
         self._last_stamp = -math.inf
+        #: limits below the filters (module doc of wrench_guard); tripped, it passes nothing
+        self.guard = WrenchGuard(setup.guard)
         self._joints: tuple[float, FloatArray, FloatArray, FloatArray] | None = None
         if setup.placement == "wrist":
             if robot is None:
@@ -267,6 +272,12 @@ class Compensator:
         if not math.isfinite(stamp) or stamp <= self._last_stamp:
             self.counts["out_of_order"] += 1
             return None
+        reading = np.asarray(wrench, dtype=float)
+        plausible = reading.shape != (6,) or not np.isfinite(reading).all() or (
+            self.guard.raw(stamp, reading))  # a malformed reading is counted below  # fmt: skip
+        if self.guard.tripped or not plausible:
+            self.counts["guard"] += 1
+            return None
         state = self._sensor_state()
         if state is None:
             self.counts["no_joint_state"] += 1
@@ -283,6 +294,9 @@ class Compensator:
         if self.setup.placement == "wrist":
             contact = -contact  # the sensor reads the hole's wrench on the peg: the reaction
         out = to_hole @ contact  # in {H}, about the acting point (transfer_matrix)
+        if not self.guard.contact(out):  # before any filter: nothing below weakens it
+            self.counts["guard"] += 1
+            return None
         dt = stamp - self._last_stamp
         out = dead_band(self._lowpass(out, dt), self._band)
         self._last_stamp = stamp

@@ -1,0 +1,105 @@
+"""The wrench guard: limits below the law that no filter or gain can weaken.
+
+The controller's force limit (Algorithm 1's F_ext_limit) acts on the wrench it is given, after
+the compensation's low-pass and dead band: a large dead band or a low cut-off lets the true force
+far past it, and it has no moment limit. The guard acts in the compensation, on each sample:
+
+* **plausibility of the raw reading**: every component within the sensor's rated range, and no
+  faster change between two samples than ``max_rate`` (a single corrupt sample, My = 1e6 N·m,
+  is no contact);
+* **limits on the contact**: the compensated wrench in {H}, before any filter, within
+  ``force_limit`` (|f|) and ``moment_limit`` (|m| about the {H} origin).
+
+The first violation trips it, with the reason; it stays tripped (the compensation publishes no
+more wrenches, so the controller, told of the trip, also sees its input go stale). Its limits are
+read-only parameters: they cannot be loosened while the cell runs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.errors import ConfigError
+
+
+@dataclasses.dataclass(frozen=True)
+class GuardLimits:
+    """What the guard allows.
+
+    Attributes:
+        force_limit: Largest |f| of the contact wrench [N].
+        moment_limit: Largest |m| of the contact wrench about the {H} origin [N·m].
+        sensor_range: The sensor's rated range, (force [N], moment [N·m]) per component.
+        max_rate: Fastest plausible change of a raw component, (force [N/s], moment [N·m/s]).
+    """
+
+    force_limit: float = 300.0
+    moment_limit: float = 30.0
+    sensor_range: tuple[float, float] = (660.0, 60.0)
+    max_rate: tuple[float, float] = (1e6, 1e5)
+
+    def __post_init__(self) -> None:
+        for name in ("force_limit", "moment_limit"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ConfigError(f"guard.{name}", value, "a finite limit > 0")
+        for name in ("sensor_range", "max_rate"):
+            pair = np.asarray(getattr(self, name), dtype=float)
+            if pair.shape != (2,) or not (np.isfinite(pair).all() and (pair > 0).all()):
+                raise ConfigError(f"guard.{name}", getattr(self, name),
+                                  "[force, moment], both finite and > 0")  # fmt: skip
+
+
+class WrenchGuard:
+    """Checks each raw reading and each compensated wrench; ``reason`` once it has tripped."""
+
+    def __init__(self, limits: GuardLimits) -> None:
+        self.limits = limits
+        self._range = np.repeat(limits.sensor_range, 3)
+        self._rate = np.repeat(limits.max_rate, 3)
+        self._last: tuple[float, FloatArray] | None = None
+        self.reason: str | None = None
+
+    @property
+    def tripped(self) -> bool:
+        return self.reason is not None
+
+    def raw(self, stamp: float, reading: FloatArray) -> bool:
+        """A raw reading (sensor frame, N and N·m): False, and tripped, if implausible."""
+        over = np.abs(reading) > self._range
+        if over.any():
+            i = int(np.argmax(over))
+            return self._trip(f"raw {_AXES[i]} {reading[i]:.4g} beyond the sensor's range "
+                              f"±{self._range[i]:.4g}")  # fmt: skip
+        if self._last is not None and stamp > self._last[0]:
+            rate = np.abs(reading - self._last[1]) / (stamp - self._last[0])
+            fast = rate > self._rate
+            if fast.any():
+                i = int(np.argmax(fast))
+                return self._trip(f"raw {_AXES[i]} changed at {rate[i]:.4g}/s, faster than "
+                                  f"{self._rate[i]:.4g}/s")  # fmt: skip
+        self._last = (stamp, reading.copy())
+        return True
+
+    def contact(self, wrench: FloatArray) -> bool:
+        """The compensated, unfiltered wrench in {H} about its origin: False, and tripped, if
+        over a limit."""
+        f = math.sqrt(float(wrench[0] ** 2 + wrench[1] ** 2 + wrench[2] ** 2))
+        m = math.sqrt(float(wrench[3] ** 2 + wrench[4] ** 2 + wrench[5] ** 2))
+        if f > self.limits.force_limit:
+            return self._trip(f"|f| {f:.4g} N over the limit {self.limits.force_limit:g} N")
+        if m > self.limits.moment_limit:
+            return self._trip(f"|m| {m:.4g} N·m over the limit {self.limits.moment_limit:g} N·m")
+        return True
+
+    def _trip(self, reason: str) -> bool:
+        if self.reason is None:
+            self.reason = reason
+        return False
+
+
+_AXES = ("fx", "fy", "fz", "tx", "ty", "tz")

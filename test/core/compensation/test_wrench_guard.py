@@ -1,0 +1,66 @@
+"""The wrench guard: below the compensation's filters, it trips on an implausible reading or a
+contact wrench over its limits, whatever the dead band and the low-pass are set to."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fbcc_ros.core.compensation.compensator import Compensator, SensorSetup
+from fbcc_ros.core.compensation.wrench_guard import GuardLimits, WrenchGuard
+from fbcc_ros.core.errors import ConfigError
+
+DT = 1e-3
+
+
+def _feed(comp: Compensator, readings: list[np.ndarray]) -> list[object]:
+    return [comp.reading(DT * (k + 1), "ft_sensor", r) for k, r in enumerate(readings)]
+
+
+def test_a_single_corrupt_moment_sample_trips_it_and_nothing_passes_after() -> None:
+    """My = 1e6 N·m in one raw sample: beyond any sensor's range. The sample and every one
+    after it are withheld (counted), the reason names the axis and the value."""
+    comp = Compensator(SensorSetup())
+    quiet = [np.zeros(6)] * 5
+    spike = np.array([0.0, 0.0, 0.0, 0.0, 1e6, 0.0])
+    out = _feed(comp, [*quiet, spike, *quiet])
+    assert all(o is not None for o in out[:5]) and all(o is None for o in out[5:])
+    assert "ty 1e+06 beyond the sensor's range" in str(comp.guard.reason)
+    assert comp.counts["guard"] == 6
+
+
+@pytest.mark.parametrize(("deadband", "lowpass_hz"), [((1000.0, 100.0), 0.0), ((0.0, 0.0), 1.0)])
+def test_the_force_limit_holds_whatever_the_filters(deadband, lowpass_hz) -> None:
+    """A contact force ramping to 400 N over 0.4 s against a 300 N limit. Behind a 1000 N dead
+    band the output stays 0; behind a 1 Hz low-pass it lags far below: the controller's own
+    limit on its input would never see 300 N. The guard trips at the first sample over it."""
+    comp = Compensator(SensorSetup(deadband=deadband, lowpass_hz=lowpass_hz))
+    ramp = [np.array([0.0, 0.0, -f, 0.0, 0.0, 0.0]) for f in np.linspace(0.0, 400.0, 401)]
+    out = _feed(comp, ramp)
+    first = next(k for k, o in enumerate(out) if o is None)
+    assert 300.0 < float(np.linalg.norm(ramp[first][:3])) <= 301.0
+    passed = [o.wrench for o in out[:first]]  # type: ignore[attr-defined]
+    assert max(abs(w[2]) for w in passed) < 300.0  # what the controller got stayed under it
+    assert "over the limit 300 N" in str(comp.guard.reason)
+
+
+def test_a_moment_over_its_limit_trips_it() -> None:
+    comp = Compensator(SensorSetup(guard=GuardLimits(moment_limit=2.0)))
+    out = _feed(comp, [np.array([0, 0, 0, 1.5, 1.5, 0.0]), np.array([0, 0, 0, 0.5, 0.5, 0.0])])
+    assert out == [None, None] and "|m| 2.121 N·m over the limit 2 N·m" in str(comp.guard.reason)
+
+
+def test_a_reading_that_changes_faster_than_any_contact_trips_it() -> None:
+    guard = WrenchGuard(GuardLimits(max_rate=(1e5, 1e4)))
+    assert guard.raw(0.000, np.zeros(6))
+    assert guard.raw(0.001, np.array([50.0, 0, 0, 0, 0, 0]))  # 5e4 N/s: a contact can
+    assert not guard.raw(0.002, np.array([250.0, 0, 0, 0, 0, 0]))  # 2e5 N/s: no contact does
+    assert "fx changed at 2e+05/s, faster than 1e+05/s" in str(guard.reason)
+
+
+@pytest.mark.parametrize(("field", "value"), [("force_limit", 0.0), ("moment_limit", float("nan")),
+                                               ("sensor_range", (100.0, -1.0)),
+                                               ("max_rate", (1.0,))])  # fmt: skip
+def test_limits_are_checked(field, value) -> None:
+    with pytest.raises(ConfigError, match=f"guard.{field}"):
+        GuardLimits(**{field: value})
