@@ -53,6 +53,7 @@ class Observer(Node):
             sub(PoseStamped, topics.TCP_COMMAND, self.on_tcp_command, 10, raw=True)
         self.start_client = self.create_client(Trigger, topics.START)
         self.abort_client = self.create_client(Trigger, topics.ABORT)
+        self.reset_client = self.create_client(Trigger, topics.RESET)
 
     def _counter(self, key: str) -> Any:
         def count(_: Any) -> None:

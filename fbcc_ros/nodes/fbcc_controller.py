@@ -58,6 +58,7 @@ class FbccControllerNode(Node):
         self.create_subscription(String, topics.GUARD, self.on_fault, topics.PHASE_QOS)
         self.create_service(Trigger, topics.START, self.on_start)
         self.create_service(Trigger, topics.ABORT, self.on_abort)
+        self.create_service(Trigger, topics.RESET, self.on_reset)
         self.create_timer(0.01, self.on_watchdog)
         self._phase_said = ""
         self._state_said = ""
@@ -141,6 +142,12 @@ class FbccControllerNode(Node):
 
     def on_abort(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         response.success, response.message = self.sup.abort()
+        self._publish_phase()
+        return response
+
+    def on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        response.success, response.message = self.sup.reset()
+        self.get_logger().info(f"reset: {response.message}")
         self._publish_phase()
         return response
 

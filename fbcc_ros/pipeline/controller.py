@@ -44,7 +44,7 @@ TABLE = (
           0.01, read_only=False),
     Param("max_step_angle", _LIMITS.max_step_angle, "largest change of a tilt per command",
           "rad", 1e-9, 0.1, read_only=False),
-    Param("auto_start", False, "start an insertion once features and wrenches arrive"),
+    Param("auto_start", False, "start the first insertion once features and wrenches arrive"),
     Param("estimate_rate_hz", 100.0, "rate of fbcc/contact_estimate (robust law; at most the "
           "control rate)", "Hz", 1.0, 10000.0),
 )  # fmt: skip
@@ -61,7 +61,8 @@ class ControllerStage:
     Attributes:
         sup: The supervisor (phase, reason, the law).
         nominal: The controller's nominal pair (its radius reads the features).
-        auto_start: Start once features and wrenches arrive.
+        auto_start: Start the first insertion once features and wrenches arrive (after a
+            reset, an insertion waits for ``start``).
     """
 
     def __init__(self, values: dict[str, Any]) -> None:
@@ -102,8 +103,9 @@ class ControllerStage:
 
     @property
     def ready_to_start(self) -> bool:
-        """With ``auto_start``: idle, and features have come."""
-        return self.auto_start and self.sup.phase == Phase.IDLE and self.sup.features is not None
+        """With ``auto_start``: idle, features have come, and nothing was started yet."""
+        return (self.auto_start and self.sup.phase == Phase.IDLE and self.sup.command is None
+                and self.sup.features is not None)  # fmt: skip
 
     def features(self, now: float, peg_in_hole: pin.SE3 | None) -> None:
         """The peg's measured pose in {H} (None: unreadable, a fault while inserting).

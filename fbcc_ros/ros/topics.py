@@ -22,6 +22,8 @@ GUARD = "fbcc/guard"
 CONTACT_ESTIMATE = "fbcc/contact_estimate"
 START = "fbcc/start"
 ABORT = "fbcc/abort"
+#: Acknowledges a fault, a force limit or an abort (std_srvs/Trigger): back to idle.
+RESET = "fbcc/reset"
 #: Frame ids on the wire.
 HOLE_FRAME = "hole"
 BASE_FRAME = "base"

@@ -131,7 +131,8 @@ def test_in_one_process_the_nodes_are_chained_and_every_topic_is_still_published
 @REALTIME
 def test_abort_through_the_service_holds_the_command() -> None:
     """Over DDS: start, abort mid-insertion through ``fbcc/abort``; the phase says so, the arm
-    stops where it was, a second abort and a second start are refused with the reason."""
+    stops where it was, a second abort is refused with the reason, a second start runs; reset
+    (``fbcc/reset``) is refused while it runs and acknowledges its abort (idle)."""
     path = str(SCENARIO)
     sc = scenario.load(path)
     with CellRun(cell_nodes(path, sc, "fbcc")) as run:
@@ -149,6 +150,12 @@ def test_abort_through_the_service_holds_the_command() -> None:
         assert not again.success and again.message == "nothing to abort: aborted"
         restart = run.call(run.observer.start_client)
         assert restart.success, restart.message  # aborted is not active: a new one may start
+        refused = run.call(run.observer.reset_client)
+        assert not refused.success and refused.message == "inserting: abort it first"
+        assert run.call(run.observer.abort_client).success
+        reset = run.call(run.observer.reset_client)
+        assert reset.success and reset.message.startswith("aborted acknowledged"), reset.message
+        run.spin_until(lambda: run.observer.phase == "idle", 2.0, "no idle phase after reset")
 
 
 @REALTIME

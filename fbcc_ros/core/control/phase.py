@@ -3,8 +3,10 @@ bags (``fbcc/phase`` carries the value, with the reason after a colon).
 
 ``idle`` (nothing commanded) → ``start`` → ``inserting`` → ``inserted`` (the depth ramp reached
 L; the law keeps adjusting); ``force_limit`` (Algorithm 1's stop), ``aborted`` and ``fault`` end
-an insertion and hold the last command. A law reports only the three of a running insertion
-(:data:`LAW_PHASES`); the supervisor adds the others.
+an insertion and hold the last command. After ``force_limit`` or ``fault`` a new ``start`` is
+refused until ``reset`` acknowledges it (back to ``idle``); after ``aborted`` (and ``inserted``,
+once aborted) a new insertion may start at once. A law reports only the three of a running
+insertion (:data:`LAW_PHASES`); the supervisor adds the others.
 """
 
 from __future__ import annotations
@@ -23,5 +25,7 @@ class Phase(enum.StrEnum):
 
 #: The phases in which the controller commands motion.
 ACTIVE = (Phase.INSERTING, Phase.INSERTED)
+#: The phases a ``start`` is refused from until ``reset`` acknowledges them.
+NEEDS_RESET = (Phase.FORCE_LIMIT, Phase.FAULT)
 #: What a law reports for each trial.
 LAW_PHASES = (Phase.INSERTING, Phase.INSERTED, Phase.FORCE_LIMIT)

@@ -3,7 +3,8 @@
 Phases (:class:`~fbcc_ros.core.control.phase.Phase`): ``idle`` (nothing commanded) →
 ``start()`` → ``inserting`` → ``inserted`` (the depth ramp reached L; the law keeps adjusting);
 ``force_limit`` (Algorithm 1's stop), ``aborted`` (``abort()``) and ``fault`` end an insertion
-and hold the last command.
+and hold the last command; ``reset()`` acknowledges the end (``idle``), and a ``start()`` after a
+fault or a force limit is refused until it has.
 
 A fault holds the last command and records why:
 
@@ -31,7 +32,7 @@ from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.control.laws import Law
-from fbcc_ros.core.control.phase import ACTIVE, Phase
+from fbcc_ros.core.control.phase import ACTIVE, NEEDS_RESET, Phase
 from fbcc_ros.core.errors import ConfigError
 
 #: The most control periods one sample may stand for (a longer gap is stepped as this many).
@@ -114,6 +115,8 @@ class Supervisor:
         """Begin an insertion from the current features."""
         if self.active:
             return False, f"already {self.phase}"
+        if self.phase in NEEDS_RESET:
+            return False, f"{self.phase} ({self.reason}): acknowledge it with reset first"
         if self.features is None or now - self._t_features > self.limits.timeout:
             return False, "no recent features: is the kinematics node running?"
         self.law.reset(self.features)
@@ -122,6 +125,15 @@ class Supervisor:
         self.phase, self.reason = Phase.INSERTING, ""
         self._t_wrench = self._t_ran = now
         return True, "insertion started"
+
+    def reset(self) -> tuple[bool, str]:
+        """Acknowledge how the last insertion ended (a fault, a force limit, an abort): back to
+        ``idle``, the last command still held. Refused while an insertion runs."""
+        if self.active:
+            return False, f"{self.phase}: abort it first"
+        ended, why = self.phase, self.reason
+        self.phase, self.reason = Phase.IDLE, ""
+        return True, f"{ended} acknowledged{f' ({why})' if why else ''}; idle"
 
     def abort(self, reason: str = "abort requested") -> tuple[bool, str]:
         if not self.active:

@@ -104,6 +104,38 @@ def test_force_limit_and_abort() -> None:
     assert sup2.abort()[0] and sup2.phase == "aborted"
 
 
+@pytest.mark.parametrize("end", ["fault", "force_limit"])
+def test_a_fault_or_a_force_limit_must_be_reset_before_a_new_start(end: str) -> None:
+    """After a fault or a force limit, start is refused with the reason until reset; reset
+    returns to idle (the command still held), and the next start runs from the features."""
+    sup = _supervisor()
+    sup.on_features(0.0, np.zeros(5))
+    sup.start(0.0)
+    held = sup.on_response(0.001, np.zeros(5))
+    if end == "fault":
+        sup.fault("IK failed: out of reach")
+    else:
+        sup.on_response(0.002, [0, 0, 400.0, 0, 0])
+    assert sup.phase == end
+    ok, why = sup.start(0.003)
+    assert not ok and why.startswith(f"{end} (") and "acknowledge it with reset first" in why
+    ok, said = sup.reset()
+    assert ok and said.startswith(f"{end} acknowledged") and sup.phase == "idle"
+    np.testing.assert_array_equal(sup.on_response(0.004, np.ones(5)), held)  # still held
+    sup.on_features(0.004, np.full(5, 1e-5))
+    assert sup.start(0.004)[0] and sup.phase == "inserting"
+    np.testing.assert_array_equal(sup.command, np.full(5, 1e-5))  # from where the arm is
+
+
+def test_reset_is_refused_while_inserting_and_an_abort_needs_none() -> None:
+    sup = _supervisor()
+    sup.on_features(0.0, np.zeros(5))
+    sup.start(0.0)
+    assert sup.reset() == (False, "inserting: abort it first")
+    sup.abort()
+    assert sup.start(0.001)[0]  # aborted: a new insertion at once
+
+
 def test_a_command_never_jumps_more_than_the_step_limit() -> None:
     sup = _supervisor("admittance", max_step=1e-6, max_step_angle=1e-5)
     sup.on_features(0.0, np.zeros(5))
