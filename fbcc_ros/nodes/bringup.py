@@ -33,6 +33,7 @@ from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import score
 from fbcc_ros.harness.cell_run import CellRun, NodeSpec
 from fbcc_ros.nodes.fbcc_record import CELL_TOPICS, default_folder
+from fbcc_ros.pipeline.mock_cell import FIXTURE_COM, FIXTURE_MASS
 from fbcc_ros.ros import topics
 
 DEFAULT_SCENARIO = "config/scenarios/bringup_interference.yaml"
@@ -98,8 +99,10 @@ def cell_nodes(
         NodeSpec("mock_cell", MockCellNode,
                  {"scenario": path, "draw_geometry": draw_geometry, "seed": seed,
                   "rate_hz": sc.rate_hz}),
+        # the mock's fixture is the payload: the tare then measures the bias alone
         NodeSpec("dynamic_compensation", DynamicCompensationNode,
-                 {"sensor_xyz": acting, "tare_samples": TARE_SAMPLES}),
+                 {"sensor_xyz": acting, "tare_samples": TARE_SAMPLES,
+                  "payload.mass": FIXTURE_MASS, "payload.com": list(FIXTURE_COM)}),
         NodeSpec("kinematics", KinematicsNode, {"rate_hz": sc.rate_hz}),
         NodeSpec("fbcc_controller", FbccControllerNode,
                  {"scenario": path, "law": law, "rate_hz": sc.rate_hz,

@@ -57,6 +57,9 @@ TABLE = (
           "[force, moment]: a raw reading beyond it is implausible", "N, N m"),
     Param("guard.max_rate", [1.0e6, 1.0e5], "fastest plausible change of a raw component "
           "[force, moment]", "N/s, N m/s"),
+    Param("guard.max_tare", [20.0, 2.0], "largest |difference| between a tare's bias and the "
+          "configured one [force, moment]; more trips the guard (a load while taring)",
+          "N, N m"),
     *CELL,
 )  # fmt: skip
 
@@ -82,7 +85,8 @@ def setup_from(values: dict[str, Any], hole: pin.SE3) -> SensorSetup:
         virtual_damping=values["virtual_damping"],
         tare_samples=values["tare_samples"],
         guard=GuardLimits(values["guard.force_limit"], values["guard.moment_limit"],
-                          _pair(values["guard.sensor_range"]), _pair(values["guard.max_rate"])),
+                          _pair(values["guard.sensor_range"]), _pair(values["guard.max_rate"]),
+                          _pair(values["guard.max_tare"])),
     )
 
 

@@ -19,6 +19,11 @@ from fbcc_ros.core.sim.mock_cell import MockCell
 from fbcc_ros.pipeline.kinematics import CELL, cell_from
 from fbcc_ros.pipeline.parameters import Param
 
+#: The hole fixture on the sensor: its mass [kg] (the default of ``fixture_mass``) and its centre
+#: of mass in the sensor frame [m].
+FIXTURE_MASS = 1.5
+FIXTURE_COM = (0.0, 0.0, 0.02)
+
 TABLE = (
     Param("scenario", "config/scenarios/bringup_interference.yaml", "scenario YAML: the true "
           "deviation of the hole (initial), the sensor noise and bias, the robot lag"),
@@ -28,12 +33,11 @@ TABLE = (
     Param("seed", -1, "seed of the noise and of the drawn geometry; -1: the scenario's seed", "",
           -1, 2**31 - 1),
     Param("sensor_frame", "ft_sensor", "frame_id of the raw readings"),
-    Param("fixture_mass", 1.5, "mass of the hole fixture on the sensor", "kg", 0.0, 100.0),
+    Param("fixture_mass", FIXTURE_MASS, "mass of the hole fixture on the sensor", "kg", 0.0,
+          100.0),
     *CELL,
 )  # fmt: skip
 
-#: The hole fixture's centre of mass in the sensor frame [m].
-FIXTURE_COM = (0.0, 0.0, 0.02)
 
 
 class MockStage:

@@ -115,7 +115,7 @@ def test_in_one_process_the_nodes_are_chained_and_every_topic_is_still_published
                                "kinematics -> fbcc_controller", "fbcc_controller -> kinematics"]
         heard = {name: sorted(s.topic_name for s in node.subscriptions)
                  for name, node in run.nodes.items()}  # fmt: skip
-        assert heard["fbcc_controller"] == ["/fbcc/kinematics_status"], heard
+        assert heard["fbcc_controller"] == ["/fbcc/guard", "/fbcc/kinematics_status"], heard
         assert heard["kinematics"] == ["/joint_states"], heard
         start_insertion(run, timeout=10.0)
         before = dict(run.observer.counts)
@@ -125,7 +125,8 @@ def test_in_one_process_the_nodes_are_chained_and_every_topic_is_still_published
         assert all(n > 100 for n in grew.values()), grew
     with CellRun(cell_nodes(path, scenario.load(path), "fbcc"), chain=False) as run:
         assert run.chained == []
-        assert len(list(run.nodes["fbcc_controller"].subscriptions)) == 3
+        # the wrench, the features, and the two fault reports (kinematics, guard)
+        assert len(list(run.nodes["fbcc_controller"].subscriptions)) == 4
 
 
 @REALTIME

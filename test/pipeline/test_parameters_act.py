@@ -51,6 +51,7 @@ CONTEXT: dict[str, dict[str, Any]] = {
     "hole_xyz": {"hole_from_home": False, "hole_rpy": HOLE["hole_rpy"]},
     "hole_rpy": {"hole_from_home": False, "hole_xyz": HOLE["hole_xyz"]},
     "estimate_rate_hz": {"scenario": ROBUST},
+    "guard.max_tare": {"tare_samples": 50},
 }
 for _name in ("hole_from_home", "hole_xyz", "hole_rpy"):  # the compensation: a wrist sensor's
     CONTEXT[f"dynamic_compensation.{_name}"] = {**WRIST, **CONTEXT[_name]}
@@ -79,6 +80,7 @@ CHANGED: dict[str, Any] = {
     "guard.moment_limit": 0.01,
     "guard.sensor_range": [10.0, 60.0],  # the fixture's weight alone reads 14.7 N
     "guard.max_rate": [1.0, 1.0e5],
+    "guard.max_tare": [1.0, 2.0],  # the tare measures the fixture's 14.7 N (no payload given)
 }
 
 

@@ -320,7 +320,9 @@ class Compensator:
         self._last_stamp = stamp
         self.counts["taring"] += 1
         if len(self._tare) == self.setup.tare_samples:
-            self._bias = np.mean(self._tare, axis=0)  # b = mean(reading - payload wrench)
+            measured = np.mean(self._tare, axis=0)  # b = mean(reading - payload wrench)
+            if self.guard.tare(measured, self._bias):  # else tripped: the bias stays
+                self._bias = measured
 
     @property
     def bias(self) -> FloatArray:

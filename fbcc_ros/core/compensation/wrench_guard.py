@@ -8,7 +8,9 @@ far past it, and it has no moment limit. The guard acts in the compensation, on 
   faster change between two samples than ``max_rate`` (a single corrupt sample, My = 1e6 N·m,
   is no contact);
 * **limits on the contact**: the compensated wrench in {H}, before any filter, within
-  ``force_limit`` (|f|) and ``moment_limit`` (|m| about the {H} origin).
+  ``force_limit`` (|f|) and ``moment_limit`` (|m| about the {H} origin);
+* **a tare only when it is safe**: the bias a tare measures within ``max_tare`` of the
+  configured one (a tare under load, the peg in the hole, would take the contact for a bias).
 
 The first violation trips it, with the reason; it stays tripped (the compensation publishes no
 more wrenches, so the controller, told of the trip, also sees its input go stale). Its limits are
@@ -35,19 +37,23 @@ class GuardLimits:
         moment_limit: Largest |m| of the contact wrench about the {H} origin [N·m].
         sensor_range: The sensor's rated range, (force [N], moment [N·m]) per component.
         max_rate: Fastest plausible change of a raw component, (force [N/s], moment [N·m/s]).
+        max_tare: Largest difference between the bias a tare measures and the configured one,
+            (|force| [N], |moment| [N·m]): more is a load on the sensor while taring (the peg in
+            contact) or a payload that is not configured.
     """
 
     force_limit: float = 300.0
     moment_limit: float = 30.0
     sensor_range: tuple[float, float] = (660.0, 60.0)
     max_rate: tuple[float, float] = (1e6, 1e5)
+    max_tare: tuple[float, float] = (20.0, 2.0)
 
     def __post_init__(self) -> None:
         for name in ("force_limit", "moment_limit"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
                 raise ConfigError(f"guard.{name}", value, "a finite limit > 0")
-        for name in ("sensor_range", "max_rate"):
+        for name in ("sensor_range", "max_rate", "max_tare"):
             pair = np.asarray(getattr(self, name), dtype=float)
             if pair.shape != (2,) or not (np.isfinite(pair).all() and (pair > 0).all()):
                 raise ConfigError(f"guard.{name}", getattr(self, name),
@@ -94,6 +100,18 @@ class WrenchGuard:
             return self._trip(f"|f| {f:.4g} N over the limit {self.limits.force_limit:g} N")
         if m > self.limits.moment_limit:
             return self._trip(f"|m| {m:.4g} N·m over the limit {self.limits.moment_limit:g} N·m")
+        return True
+
+    def tare(self, measured: FloatArray, configured: FloatArray) -> bool:
+        """A tare's bias against the configured one: False, and tripped, if they differ by more
+        than ``max_tare``."""
+        d = measured - configured
+        df, dm = float(np.linalg.norm(d[:3])), float(np.linalg.norm(d[3:]))
+        if df > self.limits.max_tare[0] or dm > self.limits.max_tare[1]:
+            return self._trip(
+                f"tare refused: it measured {df:.4g} N and {dm:.4g} N·m from the configured bias "
+                f"(at most {self.limits.max_tare[0]:g} N, {self.limits.max_tare[1]:g} N·m): a "
+                "load on the sensor while taring, or a payload not configured")
         return True
 
     def _trip(self, reason: str) -> bool:

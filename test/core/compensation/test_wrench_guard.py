@@ -64,3 +64,22 @@ def test_a_reading_that_changes_faster_than_any_contact_trips_it() -> None:
 def test_limits_are_checked(field, value) -> None:
     with pytest.raises(ConfigError, match=f"guard.{field}"):
         GuardLimits(**{field: value})
+
+
+def test_a_tare_under_load_is_refused_and_trips_the_guard() -> None:
+    """A compensation restarted with the peg pressed in the hole (46, -28, -38 N on the
+    sensor): the tare would take the contact for a bias. It is refused with what it measured;
+    the configured bias stays and nothing passes. Without the load the same tare is taken."""
+    load = np.array([46.0, -28.0, -38.0, 0.5, -0.2, 0.0])
+    noise = np.random.default_rng(3).normal(0.0, 0.02, (25, 6))
+    for pressed in (True, False):
+        comp = Compensator(SensorSetup(tare_samples=20, bias=(1.0, 0, 0, 0, 0, 0)))
+        out = _feed(comp, list(noise + (load if pressed else 0.0) + [1.0, 0, 0, 0, 0, 0]))
+        assert all(o is None for o in out[:20])  # taring
+        if pressed:
+            assert all(o is None for o in out[20:]) and comp.guard.tripped
+            assert "tare refused: it measured 65.9" in str(comp.guard.reason), comp.guard.reason
+            np.testing.assert_array_equal(comp.bias, [1.0, 0, 0, 0, 0, 0])
+        else:
+            assert all(o is not None for o in out[20:]) and not comp.guard.tripped
+            np.testing.assert_allclose(comp.bias, [1.0, 0, 0, 0, 0, 0], atol=0.02)
