@@ -5,13 +5,13 @@ Subscribes ``ft_sensor/compensated`` (WrenchStamped in {H}; each one is a contro
 command features as the peg's pose in {H}), ``fbcc/phase`` and ``fbcc/contact_state``
 (String, on change; the phase latched) and, with the robust law, ``fbcc/contact_estimate``
 (Float64MultiArray at ``estimate_rate_hz`` while inserting: the stamp of the sample it follows,
-then ``identification.ESTIMATE_FIELDS``). Services ``fbcc/start`` and ``fbcc/abort``
-(std_srvs/Trigger).
+then ``identification.ESTIMATE_FIELDS``). Services ``fbcc/start``, ``fbcc/abort`` and
+``fbcc/reset`` (std_srvs/Trigger).
 
 The law and its supervisor are :class:`~fbcc_ros.pipeline.controller.ControllerStage`'s (the
 scenario file gives the law's nominal pair, gains and insertion). Safety
 (:mod:`fbcc_ros.core.control.supervisor`): a fault — force limit, stale input, non-finite input, IK
-failure — holds the last command and says why.
+failure, a tripped wrench guard — holds where the arm is and says why.
 """
 
 from __future__ import annotations
@@ -123,7 +123,7 @@ class FbccControllerNode(Node):
 
     def on_fault(self, msg: String) -> None:
         """A fault another node reports (an unreachable command, a tripped wrench guard)."""
-        self.sup.fault(msg.data)
+        self.sup.fault(msg.data, self.now())
         self._publish_phase()
 
     def on_watchdog(self) -> None:

@@ -57,7 +57,7 @@ class KinematicsNode(Node):
     def on_joints(self, data: bytes) -> None:
         try:
             stamp, q, _ = joints_from_cdr(data, self.stage.joint_names)
-            peg = self.stage.joints(q)
+            peg = self.stage.joints(q, stamp)
         except FbccError as exc:
             self.get_logger().warn(f"joint state rejected: {exc}", throttle_duration_sec=1.0)
             return
@@ -66,7 +66,7 @@ class KinematicsNode(Node):
     def on_command(self, data: bytes) -> None:
         try:
             stamp, pose = pose_from_cdr(data)
-            solution = self.stage.command(pose)
+            solution = self.stage.command(pose, self.get_clock().now().nanoseconds * 1e-9)
         except (IkError, FbccError) as exc:
             self.failures += 1
             self.pub_status.publish(String(data=f"IK failed: {exc}"))

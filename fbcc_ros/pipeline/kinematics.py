@@ -6,8 +6,10 @@ which is the controller's nominal one (:mod:`fbcc_ros.pipeline.controller`), so 
 no radius of its own. The commanded pose is reached with the peg's current spin about its axis.
 
 The IK starts from the measured joints, never from its own last command: each command is then
-within one period's reach (the joint velocity limits) of where the arm is, whatever happened
-before (a restarted node, a command the arm did not follow).
+within reach (the joint velocity limits) of where the arm was measured, whatever happened before
+(a restarted node, a command the arm did not follow). The reach is the time since that
+measurement plus one period, at most :data:`MAX_REACH_PERIODS` periods: a starved loop's joint
+states are several periods old when a command is solved, and the arm has moved on since.
 """
 
 from __future__ import annotations
@@ -19,10 +21,15 @@ import pinocchio as pin
 from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.control.supervisor import MAX_PERIODS
 from fbcc_ros.core.kinematics.cell import CellKinematics, TcpCommand, aligned_hole_at
 from fbcc_ros.core.kinematics.robot import RobotModel, Tool
 from fbcc_ros.core.kinematics.robot import pose as pose_of
 from fbcc_ros.pipeline.parameters import Param
+
+#: The most control periods a command may take to reach, from the measured joints: as many as
+#: the controller steps one late sample by.
+MAX_REACH_PERIODS = MAX_PERIODS
 
 #: The arm, its tool and where the hole is: shared by the stages that need kinematics.
 CELL = (
@@ -56,8 +63,8 @@ class KinematicsStage:
 
     Attributes:
         cell: The robot, the hole and the IK.
-        dt: The control period [s]: a command must be reachable within it.
-        q: The last measured joints (None before the first).
+        dt: The control period [s].
+        q: The last measured joints (None before the first), ``t_q`` their stamp [s].
     """
 
     def __init__(self, values: dict[str, Any]) -> None:
@@ -65,6 +72,7 @@ class KinematicsStage:
         self.cell = CellKinematics(robot, hole, None)
         self.dt = 1.0 / values["rate_hz"]
         self.q: FloatArray | None = None
+        self.t_q: float | None = None
 
     def preload(self) -> None:
         """Load the compiled IK step now, not in the first period."""
@@ -74,16 +82,24 @@ class KinematicsStage:
     def joint_names(self) -> tuple[str, ...]:
         return self.cell.robot.joint_names
 
-    def joints(self, q: ArrayLike) -> pin.SE3:
-        """The peg's pose in {H}, ``T_H_P``, at the measured joints ``q``."""
+    def joints(self, q: ArrayLike, stamp: float | None = None) -> pin.SE3:
+        """The peg's pose in {H}, ``T_H_P``, at the joints ``q`` measured at ``stamp`` [s]."""
         peg = self.cell.peg_in_hole(q)
-        self.q = np.asarray(q, dtype=float)
+        self.q, self.t_q = np.asarray(q, dtype=float), stamp
         return peg
 
-    def command(self, peg_in_hole: pin.SE3) -> TcpCommand | None:
-        """The joints that place the peg at ``peg_in_hole`` within one period's reach of the
-        measured joints; None before any joints were measured. Raises
-        :class:`~fbcc_ros.core.kinematics.ik.IkError` for a pose it cannot reach."""
+    def command(self, peg_in_hole: pin.SE3, now: float | None = None) -> TcpCommand | None:
+        """The joints that place the peg at ``peg_in_hole`` within reach of the measured joints
+        at ``now`` [s] (module doc; one period without times); None before any joints were
+        measured. Raises :class:`~fbcc_ros.core.kinematics.ik.IkError` for a pose out of reach."""
         if self.q is None:
             return None
-        return self.cell.pose_solution(peg_in_hole, self.q, self.dt)
+        return self.cell.pose_solution(peg_in_hole, self.q, self.reach(now))
+
+    def reach(self, now: float | None) -> float:
+        """The time [s] the arm has to reach a command solved at ``now``: since its joints were
+        measured, plus one period; one period without times, at most MAX_REACH_PERIODS."""
+        if now is None or self.t_q is None:
+            return self.dt
+        periods = 1 + max(0.0, now - self.t_q) / self.dt
+        return self.dt * min(periods, MAX_REACH_PERIODS)

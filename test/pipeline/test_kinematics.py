@@ -7,7 +7,7 @@ import pinocchio as pin
 import pytest
 
 from fbcc_ros.core.kinematics.ik import IkError
-from fbcc_ros.pipeline.kinematics import TABLE, KinematicsStage
+from fbcc_ros.pipeline.kinematics import MAX_REACH_PERIODS, TABLE, KinematicsStage
 from fbcc_ros.pipeline.parameters import resolve
 
 
@@ -34,3 +34,17 @@ def test_each_command_is_within_one_period_of_the_measured_joints() -> None:
     else:
         pytest.fail("a target 4 mm from the arm was reached within one period")
     assert given >= 2  # the near ones were solved
+
+
+def test_the_reach_grows_with_the_age_of_the_measured_joints_up_to_a_bound() -> None:
+    """A starved loop solves a command several periods after its joint state: the arm has had
+    that long to move, so the reach is the time since the measurement plus one period, at most
+    MAX_REACH_PERIODS periods (then a stalled arm's old joints still bound the command)."""
+    stage = KinematicsStage(resolve("kinematics", TABLE, {}))
+    start = stage.joints(stage.cell.robot.home, stamp=1.0)
+    far = start * pin.SE3(np.eye(3), np.array([4e-4, 0.0, 0.0]))  # beyond one period's reach
+    with pytest.raises(IkError):
+        stage.command(far, now=1.0)
+    assert stage.command(far, now=1.003) is not None  # four periods' reach
+    assert stage.reach(1.5) == pytest.approx(MAX_REACH_PERIODS * stage.dt)
+    assert stage.reach(None) == stage.dt

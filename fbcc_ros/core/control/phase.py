@@ -3,9 +3,10 @@ bags (``fbcc/phase`` carries the value, with the reason after a colon).
 
 ``idle`` (nothing commanded) → ``start`` → ``inserting`` → ``inserted`` (the depth ramp reached
 L; the law keeps adjusting); ``force_limit`` (Algorithm 1's stop), ``aborted`` and ``fault`` end
-an insertion and hold the last command. After ``force_limit`` or ``fault`` a new ``start`` is
-refused until ``reset`` acknowledges it (back to ``idle``); after ``aborted`` (and ``inserted``,
-once aborted) a new insertion may start at once. A law reports only the three of a running
+an insertion and hold (a fault or a force limit where the arm is measured). After
+``force_limit`` or ``fault`` a new ``start`` is refused until ``reset`` acknowledges it (back to
+``idle``); after ``aborted`` (and ``inserted``, once aborted) a new insertion may start at
+once. A law reports only the three of a running
 insertion (:data:`LAW_PHASES`); the supervisor adds the others.
 """
 

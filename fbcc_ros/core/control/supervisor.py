@@ -3,10 +3,11 @@
 Phases (:class:`~fbcc_ros.core.control.phase.Phase`): ``idle`` (nothing commanded) →
 ``start()`` → ``inserting`` → ``inserted`` (the depth ramp reached L; the law keeps adjusting);
 ``force_limit`` (Algorithm 1's stop), ``aborted`` (``abort()``) and ``fault`` end an insertion
-and hold the last command; ``reset()`` acknowledges the end (``idle``), and a ``start()`` after a
+and hold; ``reset()`` acknowledges the end (``idle``), and a ``start()`` after a
 fault or a force limit is refused until it has.
 
-A fault holds the last command and records why:
+A fault or a force limit holds where the arm is (the measured features while they are fresh,
+else the last command; an abort holds the last command) and records why:
 
 * non-finite features or response;
 * stale input: no features or no compensated wrench for longer than ``timeout`` (checked on
@@ -99,15 +100,24 @@ class Supervisor:
     def active(self) -> bool:
         return self.phase in ACTIVE
 
-    def fault(self, reason: str) -> None:
-        """Stop and hold the last command, saying why."""
+    def fault(self, reason: str, now: float) -> None:
+        """Stop, saying why, and hold where the arm is (:meth:`_hold`)."""
         if self.active or self.phase == Phase.IDLE:
             self.phase, self.reason = Phase.FAULT, reason
+            self._hold(now)
+
+    def _hold(self, now: float) -> None:
+        """The command becomes the measured features when they are fresh at ``now``: the arm
+        stops where it is instead of going on to a command it has not reached (one step, plus
+        its lag, further into the hole). With stale features the last command stays."""
+        if (self.command is not None and self.features is not None
+                and now - self._t_features <= self.limits.timeout):  # fmt: skip
+            self.command = self.features.copy()
 
     def on_features(self, now: float, features: ArrayLike) -> None:
         x = np.asarray(features, dtype=float)
         if x.shape != (5,) or not np.isfinite(x).all():
-            self.fault(f"non-finite or malformed features {x.tolist()}")
+            self.fault(f"non-finite or malformed features {x.tolist()}", now)
             return
         self.features, self._t_features = x, now
 
@@ -162,7 +172,8 @@ class Supervisor:
         for name, t in (("compensated wrench", self._t_wrench), ("features", self._t_features)):
             if now - t > self.limits.timeout:
                 self.fault(
-                    f"stale {name}: none for {now - t:.3f} s (timeout {self.limits.timeout} s)"
+                    f"stale {name}: none for {now - t:.3f} s (timeout {self.limits.timeout} s)",
+                    now,
                 )
 
     def period(self, stamp: float | None) -> float:
@@ -184,7 +195,7 @@ class Supervisor:
         if not self.active:
             return self.command
         if w.shape != (5,) or not np.isfinite(w).all():
-            self.fault(f"non-finite or malformed response {w.tolist()}")
+            self.fault(f"non-finite or malformed response {w.tolist()}", now)
             return self.command
         self._t_wrench = self._t_ran = now
         self._check(now)
@@ -198,6 +209,8 @@ class Supervisor:
                 f"|F| = {np.linalg.norm(w[:3]):.1f} N over the limit "
                 f"{self.law.params.F_ext_limit} N"
             )
+            self._hold(now)
+            return self.command
         elif law_phase == Phase.INSERTED:
             self.phase = Phase.INSERTED
         self.command = self.limits.clip(self.command, x_c)  # whatever the law asks

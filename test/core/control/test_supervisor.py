@@ -44,25 +44,44 @@ def test_idle_until_started_then_inserting() -> None:
 
 
 @pytest.mark.parametrize(
-    ("event", "reason"),
+    ("event", "reason", "holds"),
     [
-        (lambda s: s.on_response(0.001, [0, 0, math.nan, 0, 0]), "non-finite or malformed resp"),
-        (lambda s: s.on_features(0.001, [0, 0, math.inf, 0, 0]), "non-finite or malformed feat"),
+        (lambda s: s.on_response(0.001, [0, 0, math.nan, 0, 0]), "non-finite or malformed resp",
+         "measured"),
+        (lambda s: s.on_features(0.001, [0, 0, math.inf, 0, 0]), "non-finite or malformed feat",
+         "measured"),
         (
             lambda s: [s.watchdog(t) for t in np.arange(0.01, 0.2, 0.01)],
             "stale compensated wrench: none for 0.060 s",
+            "last",  # the features are stale too: the last command stays
         ),
-        (lambda s: s.fault("IK failed: out of reach"), "IK failed"),
+        (lambda s: s.fault("IK failed: out of reach", 0.001), "IK failed", "measured"),
     ],
-)
-def test_faults_hold_the_last_command_and_say_why(event, reason) -> None:
+)  # fmt: skip
+def test_faults_hold_and_say_why(event, reason, holds) -> None:
+    """A fault stops the insertion with its reason and holds where the arm is: the measured
+    features while they are fresh (the arm does not go on to a command it has not reached),
+    else the last command."""
     sup = _supervisor()
     sup.on_features(0.0, np.zeros(5))
     sup.start(0.0)
-    held = sup.on_response(0.0005, np.zeros(5))
+    last = sup.on_response(0.0005, np.zeros(5))
+    measured = np.full(5, 1e-6)
+    sup.on_features(0.0006, measured)  # the arm, measured a little behind its command
     event(sup)
     assert sup.phase == "fault" and reason in sup.reason
-    np.testing.assert_array_equal(sup.on_response(0.002, np.ones(5)), held)
+    held = sup.on_response(0.002, np.ones(5))
+    np.testing.assert_array_equal(held, measured if holds == "measured" else last)
+
+
+def test_a_force_limit_holds_where_the_arm_is() -> None:
+    sup = _supervisor()
+    sup.on_features(0.0, np.zeros(5))
+    sup.start(0.0)
+    sup.on_response(0.001, np.zeros(5))
+    sup.on_features(0.0015, np.full(5, 2e-6))
+    assert np.array_equal(sup.on_response(0.002, [0, 0, 400.0, 0, 0]), np.full(5, 2e-6))
+    assert sup.phase == "force_limit"
 
 
 def test_a_stall_of_our_own_is_not_stale_input() -> None:
@@ -111,9 +130,9 @@ def test_a_fault_or_a_force_limit_must_be_reset_before_a_new_start(end: str) -> 
     sup = _supervisor()
     sup.on_features(0.0, np.zeros(5))
     sup.start(0.0)
-    held = sup.on_response(0.001, np.zeros(5))
+    sup.on_response(0.001, np.zeros(5))
     if end == "fault":
-        sup.fault("IK failed: out of reach")
+        sup.fault("IK failed: out of reach", 0.0015)
     else:
         sup.on_response(0.002, [0, 0, 400.0, 0, 0])
     assert sup.phase == end
@@ -121,7 +140,8 @@ def test_a_fault_or_a_force_limit_must_be_reset_before_a_new_start(end: str) -> 
     assert not ok and why.startswith(f"{end} (") and "acknowledge it with reset first" in why
     ok, said = sup.reset()
     assert ok and said.startswith(f"{end} acknowledged") and sup.phase == "idle"
-    np.testing.assert_array_equal(sup.on_response(0.004, np.ones(5)), held)  # still held
+    # still held where the arm was measured when it ended (here the start's features)
+    np.testing.assert_array_equal(sup.on_response(0.004, np.ones(5)), np.zeros(5))
     sup.on_features(0.004, np.full(5, 1e-5))
     assert sup.start(0.004)[0] and sup.phase == "inserting"
     np.testing.assert_array_equal(sup.command, np.full(5, 1e-5))  # from where the arm is
