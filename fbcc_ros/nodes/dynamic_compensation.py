@@ -41,6 +41,7 @@ class DynamicCompensationNode(Node):
             self.create_publisher(WrenchStamped, topics.COMPENSATED_WRENCH, 10))
         self.pub_bias = self.create_publisher(WrenchStamped, topics.BIAS, topics.PHASE_QOS)
         self.pub_guard = self.create_publisher(String, topics.GUARD, topics.PHASE_QOS)
+        self.create_subscription(String, topics.REARM, self.on_rearm, 10)
         self._publish_bias(self.get_clock().now().nanoseconds * 1e-9)
         sub = self.create_subscription  # raw: CDR bytes, decoded by fbcc_ros.ros.convert
         if self.stage.robot is not None:
@@ -85,6 +86,12 @@ class DynamicCompensationNode(Node):
             self.get_logger().warn(f"external torques rejected: {exc}", throttle_duration_sec=1.0)
             return
         self._publish(self.stage.torques(stamp, tau, received=self.now()))
+
+    def on_rearm(self, msg: String) -> None:
+        cleared = self.stage.rearm()
+        if cleared is not None:
+            self.get_logger().info(f"wrench guard re-armed ({msg.data})")
+            self.pub_guard.publish(String(data=""))  # the latched trip is over
 
     def _publish_bias(self, stamp: float) -> None:
         """The bias in use, latched: the configured one at start-up, the measured one with the

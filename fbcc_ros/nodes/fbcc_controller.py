@@ -59,6 +59,7 @@ class FbccControllerNode(Node):
         self.create_service(Trigger, topics.START, self.on_start)
         self.create_service(Trigger, topics.ABORT, self.on_abort)
         self.create_service(Trigger, topics.RESET, self.on_reset)
+        self.pub_rearm = self.create_publisher(String, topics.REARM, 10)
         self.create_timer(0.01, self.on_watchdog)
         self._phase_said = ""
         self._state_said = ""
@@ -122,8 +123,10 @@ class FbccControllerNode(Node):
         self._publish_phase()
 
     def on_fault(self, msg: String) -> None:
-        """A fault another node reports (an unreachable command, a tripped wrench guard)."""
-        self.sup.fault(msg.data, self.now())
+        """A fault another node reports (an unreachable command, a tripped wrench guard; an
+        empty report is a guard re-armed)."""
+        if msg.data:
+            self.sup.fault(msg.data, self.now())
         self._publish_phase()
 
     def on_watchdog(self) -> None:
@@ -148,6 +151,8 @@ class FbccControllerNode(Node):
     def on_reset(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         response.success, response.message = self.sup.reset()
         self.get_logger().info(f"reset: {response.message}")
+        if response.success:  # the compensation's guard re-arms on it
+            self.pub_rearm.publish(String(data=response.message))
         self._publish_phase()
         return response
 

@@ -30,7 +30,7 @@ CELL_TOPICS = [
     topics.JOINT_STATES, topics.JOINT_COMMAND, topics.RAW_WRENCH, topics.COMPENSATED_WRENCH,
     topics.BIAS,
     topics.FEATURES, topics.COMMAND, topics.TCP_COMMAND, topics.PHASE, topics.CONTACT_STATE,
-    topics.KINEMATICS_STATUS, topics.GUARD, topics.TRUTH, topics.CONTACT_ESTIMATE,
+    topics.KINEMATICS_STATUS, topics.GUARD, topics.REARM, topics.TRUTH, topics.CONTACT_ESTIMATE,
 ]  # fmt: skip
 
 TABLE = (

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike
 
 from fbcc_ros.core.compensation.compensator import Compensated, Compensator, SensorSetup
 from fbcc_ros.core.compensation.payload import Payload
-from fbcc_ros.core.compensation.wrench_guard import GuardLimits
+from fbcc_ros.core.compensation.wrench_guard import GuardLimits, WrenchGuard
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.kinematics.robot import pose
 from fbcc_ros.pipeline.kinematics import CELL, cell_from
@@ -135,6 +135,14 @@ class CompensationStage:
         self.comp = Compensator(setup, self.robot)
         self._untared = tare > 0
         self._tripped_said = False
+
+    def rearm(self) -> str | None:
+        """A fresh wrench guard (the controller's reset acknowledged the trip); returns the
+        reason of the trip it clears, None if it had not tripped."""
+        cleared = self.comp.guard.reason
+        self.comp.guard = WrenchGuard(self.setup.guard)
+        self._tripped_said = False
+        return cleared
 
     def joints(self, stamp: float, q: ArrayLike, dq: ArrayLike | None = None) -> None:
         """The arm's joint state (wrist placement: where the sensor and payload are)."""

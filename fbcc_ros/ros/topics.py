@@ -15,8 +15,11 @@ TCP_COMMAND = "fbcc/tcp_command"
 PHASE = "fbcc/phase"
 CONTACT_STATE = "fbcc/contact_state"
 KINEMATICS_STATUS = "fbcc/kinematics_status"
-#: Why the compensation's wrench guard tripped (String, latched): the controller faults on it.
+#: Why the compensation's wrench guard tripped (String, latched; empty once re-armed): the
+#: controller faults on it.
 GUARD = "fbcc/guard"
+#: The controller's reset, passed on (String: what it acknowledged): the guard re-arms.
+REARM = "fbcc/rearm"
 #: The robust law's contact identification, Float64MultiArray at ``estimate_rate_hz`` while an
 #: insertion runs: the stamp of the sample it follows, then identification.ESTIMATE_FIELDS.
 CONTACT_ESTIMATE = "fbcc/contact_estimate"

@@ -163,7 +163,8 @@ def test_abort_through_the_service_holds_the_command() -> None:
 def test_a_tripped_wrench_guard_faults_the_controller_and_holds_the_arm() -> None:
     """Over DDS: the compensation's guard at 5 N (the interference fit pushes harder), its dead
     band at 1000 N so the controller's input stays zero. The guard trips on the unfiltered
-    wrench, the controller faults with its reason, and the arm stops where it was."""
+    wrench, the controller faults with its reason, and the arm stops where it was; a reset
+    acknowledges it and re-arms the guard, which trips again on the force still there."""
     path = str(SCENARIO)
     specs = cell_nodes(path, scenario.load(path), "fbcc")
     specs[1].parameters.update({"guard.force_limit": 5.0, "deadband": [1000.0, 100.0]})
@@ -181,6 +182,15 @@ def test_a_tripped_wrench_guard_faults_the_controller_and_holds_the_arm() -> Non
         # dead band, would never have stopped it
         force = max(float(np.linalg.norm(row[6:9])) for row in run.observer.truth)
         assert force < 25.0, force
+        # the reset acknowledges the fault and re-arms the guard; the peg still presses with
+        # more than 5 N, so the fresh guard trips again and the controller faults again
+        comp = run.nodes["dynamic_compensation"].stage.comp
+        tripped = comp.guard
+        assert run.call(run.observer.reset_client).success
+        run.spin_until(lambda: comp.guard is not tripped and comp.guard.tripped, 3.0,
+                       "the guard was not re-armed, or did not trip again")  # fmt: skip
+        run.spin_until(lambda: run.observer.phase == "fault", 3.0, "no fault after re-arming")
+        assert run.observer.reason.startswith("wrench guard")
 
 
 @REALTIME
