@@ -10,6 +10,7 @@ rewritten at each ``checkpoint`` so a killed run still has one.
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 from typing import Any
@@ -48,6 +49,10 @@ class BagWriter:
         self.start_ns: int | None = None
         self.end_ns = 0
         self.closed = False
+        #: why writing failed (disk full, the folder gone), None while it works
+        self.failed: str | None = None
+        self._on_disk: dict[str, int] = {}  # the counts and end time of what is flushed
+        self._end_on_disk = 0
 
     def add_topic(self, topic: str, type_name: str, qos: list[Any]) -> None:
         """``qos``: the publishers' offered rclpy QoSProfiles."""
@@ -70,32 +75,72 @@ class BagWriter:
         self.topics[topic] = {"type": type_name, "qos": profiles, "count": 0}
 
     def write(self, topic: str, data: bytes, log_time_ns: int | None = None) -> None:
-        """One CDR message, received at ``log_time_ns`` (now if None)."""
+        """One CDR message, received at ``log_time_ns`` (now if None). An ``OSError`` (disk
+        full) is raised once and ends the writing: the counts go back to what is on disk, and
+        later messages are dropped."""
+        if self.failed is not None:
+            return  # after a failed write nothing more goes in: the file ends where it failed
         t = time.time_ns() if log_time_ns is None else log_time_ns
-        self._mcap.add_message(self._channels[topic], log_time=t, data=data, publish_time=t)
-        if self._file.tell() != self._flushed:  # a chunk was written: to disk with it
-            self._file.flush()
-            self._flushed = self._file.tell()
-        self.topics[topic]["count"] += 1
-        self.start_ns = t if self.start_ns is None else min(self.start_ns, t)
-        self.end_ns = max(self.end_ns, t)
+        try:
+            self._mcap.add_message(self._channels[topic], log_time=t, data=data, publish_time=t)
+            self.topics[topic]["count"] += 1
+            self.start_ns = t if self.start_ns is None else min(self.start_ns, t)
+            self.end_ns = max(self.end_ns, t)
+            if self._file.tell() != self._flushed:  # a chunk, this message last: to disk
+                self._file.flush()
+                self._flushed = self._file.tell()
+                self._on_disk = {name: m["count"] for name, m in self.topics.items()}
+                self._end_on_disk = self.end_ns
+        except OSError as exc:
+            self.fail(exc)
+            raise
+
+    def fail(self, exc: OSError) -> None:
+        """Writing failed: say why (``failed``); the file is cut back to its last flushed chunk
+        (a record written in part would hold messages the counts do not), and the counts are
+        what it holds."""
+        self.failed = f"{exc.filename or self.path}: {exc.strerror or exc}"
+        for name, meta in self.topics.items():  # what the file holds, for the metadata
+            meta["count"] = self._on_disk.get(name, 0)
+        self.end_ns = self._end_on_disk
+        self._cut_back()
+
+    def _cut_back(self) -> None:
+        try:
+            os.truncate(self.path, self._flushed)
+        except OSError:
+            pass  # the file stays longer: our reader still stops at its last whole chunk
 
     def checkpoint(self) -> None:
-        """Rewrites metadata.yaml with the counts so far (for a run that is killed later)."""
-        self._write_metadata()
+        """Rewrites metadata.yaml with the counts of what is on disk (the flushed chunks), so a
+        run killed later leaves metadata that does not count more than the file holds."""
+        self._write_metadata(self._on_disk, self._end_on_disk)
 
     def close(self) -> None:
+        """Finishes the file (summary, footer) and the metadata; after a failed write, only
+        what can still be written (the file then reads as truncated after its last chunk)."""
         if self.closed:
             return
         self.closed = True
-        self._mcap.finish()
-        self._file.close()
-        self._write_metadata()
+        if self.failed is None:
+            self._mcap.finish()
+            self._file.close()
+            self._write_metadata()
+            return
+        for step in (self._file.close, self._cut_back, lambda: self._write_metadata()):
+            try:
+                step()
+            except OSError:
+                pass  # the disk is still full: the bag keeps what was flushed
 
-    def _write_metadata(self) -> None:
+    def _write_metadata(self, counts: dict[str, int] | None = None, end_ns: int | None = None
+                        ) -> None:  # fmt: skip
+        """metadata.yaml with ``counts`` per topic up to ``end_ns`` (default: all written)."""
+        counts = counts if counts is not None else {n: t["count"] for n, t in self.topics.items()}
+        end = self.end_ns if end_ns is None else end_ns
         start = self.start_ns or 0
-        duration = self.end_ns - start if self.start_ns is not None else 0
-        count = sum(t["count"] for t in self.topics.values())
+        duration = max(end - start, 0) if self.start_ns is not None else 0
+        count = sum(counts.values())
         info = {
             "version": METADATA_VERSION,
             "storage_identifier": "mcap",
@@ -111,7 +156,7 @@ class BagWriter:
                         "offered_qos_profiles": t["qos"],
                         "type_description_hash": type_hash(t["type"]),
                     },
-                    "message_count": t["count"],
+                    "message_count": counts.get(name, 0),
                 }
                 for name, t in self.topics.items()
             ],

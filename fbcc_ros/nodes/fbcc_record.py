@@ -58,7 +58,7 @@ class FbccRecordNode(Node):
         self.wanted = [self.resolve_topic_name(t) for t in values["topics"]]
         self.get_logger().info(f"recording {len(self.wanted)} topics into {self.folder}")
         self.create_timer(values["discovery_period"], self.discover)
-        self.create_timer(values["checkpoint_period"], self.bag.checkpoint)
+        self.create_timer(values["checkpoint_period"], self.checkpoint)
         publish_diagnostics(self, counter_report(self.counts, (), "recording"))
         self.discover()
 
@@ -90,9 +90,29 @@ class FbccRecordNode(Node):
         write = self.bag.write
 
         def record(data: bytes) -> None:
-            write(name, data, time.time_ns())
+            try:
+                write(name, data, time.time_ns())
+            except OSError:
+                self._stop()
 
         return record
+
+    def checkpoint(self) -> None:
+        if self.bag.failed is None:
+            try:
+                self.bag.checkpoint()
+            except OSError as exc:
+                self.bag.fail(exc)
+                self._stop()
+
+    def _stop(self) -> None:
+        """Writing failed (disk full, the folder gone): stop recording, say so in one line;
+        the bag keeps what was flushed and the node stays up (the cell runs on)."""
+        for sub in list(self.subscriptions):
+            self.destroy_subscription(sub)
+        self.wanted = []
+        self.get_logger().error(f"recording stopped: {self.bag.failed}; {self.folder} keeps "
+                                "what was written before")  # fmt: skip
 
     def destroy_node(self) -> None:
         self.bag.close()

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import errno
+import io
+import os
 from pathlib import Path
+from typing import Any
 
 import pytest
 import yaml
@@ -132,3 +136,40 @@ def test_a_bag_folder_is_never_overwritten(tmp_path: Path) -> None:
     _write(tmp_path / "run", n=1)
     with pytest.raises(InputError, match="a new or empty folder"):
         BagWriter(tmp_path / "run")
+
+
+class _SmallDisk(io.FileIO):
+    """A file on a disk that fills up at ``LIMIT`` bytes (ENOSPC, as a full disk says)."""
+
+    LIMIT = 20_000
+
+    def write(self, data: Any) -> int:
+        if self.tell() + len(data) > self.LIMIT:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), self.name)
+        return super().write(data)
+
+
+def test_a_full_disk_ends_the_writing_cleanly_and_the_metadata_counts_what_is_on_disk(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The disk fills while recording: the write raises once, the writer says why, closing it
+    raises nothing, and metadata.yaml counts exactly the messages the file holds (our reader
+    reads them up to the last whole chunk)."""
+    opened = Path.open
+    monkeypatch.setattr(Path, "open", lambda self, mode="r", *a, **k: _SmallDisk(str(self), "wb")
+                        if self.suffix == ".mcap" else opened(self, mode, *a, **k))  # fmt: skip
+    folder = tmp_path / "full"
+    bag = BagWriter(folder, chunk_size=4096)
+    bag.add_topic("/ft_sensor/raw", "geometry_msgs/msg/WrenchStamped", [QoSProfile(depth=10)])
+    written = 0
+    with pytest.raises(OSError, match="No space left"):
+        for i in range(100_000):
+            bag.write("/ft_sensor/raw", serialize_message(_wrench(i)), T0 + i * 1_000_000)
+            written += 1
+    assert bag.failed is not None and "No space left on device" in bag.failed
+    bag.close()  # no exception: what can be written is
+    monkeypatch.undo()
+    meta = yaml.safe_load((folder / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    on_disk = read_bag(folder)
+    assert on_disk.truncated  # no summary or footer: the disk was full
+    assert 0 < meta["message_count"] == on_disk.counts["/ft_sensor/raw"] < written

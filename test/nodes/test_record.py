@@ -9,7 +9,9 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 import rclpy
+import yaml
 from rclpy.experimental import EventsExecutor
 from rclpy.parameter import Parameter
 from rosbags.highlevel import AnyReader
@@ -132,3 +134,42 @@ def _recorded(folder: Path, topic: str) -> int:
         return 0
     counts = info["rosbag2_bagfile_information"]["topics_with_message_count"]
     return next((t["message_count"] for t in counts if t["topic_metadata"]["name"] == topic), 0)
+
+
+def test_a_full_disk_stops_the_recording_not_the_node(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The disk fills 100 kB into a mock cell's recording: the recorder stops recording (its
+    subscriptions gone, one error line), keeps spinning without an exception, and closes a bag
+    whose metadata counts what the file holds (the chunks written before)."""
+    from test.bag.test_bag import _SmallDisk
+
+    class Disk(_SmallDisk):
+        LIMIT = 100_000
+
+    opened = Path.open
+    monkeypatch.setattr(Path, "open", lambda self, mode="r", *a, **k: Disk(str(self), "wb")
+                        if self.suffix == ".mcap" else opened(self, mode, *a, **k))  # fmt: skip
+    folder = tmp_path / "full"
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    executor = EventsExecutor(context=context)
+    try:
+        mock = MockCellNode(context=context)
+        recorder = FbccRecordNode(context=context, parameter_overrides=[
+            Parameter("out", value=str(folder)), Parameter("topics", value=TOPICS)])  # fmt: skip
+        for node in (mock, recorder):
+            executor.add_node(node)
+        deadline = time.monotonic() + 3.0
+        while time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.01)
+        assert recorder.bag.failed is not None and "No space left" in recorder.bag.failed
+        assert not list(recorder.subscriptions)
+        recorder.destroy_node()
+        mock.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)
+    monkeypatch.undo()
+    meta = yaml.safe_load((folder / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    bag = read_bag(folder)
+    assert 0 < meta["message_count"] == sum(bag.counts.values())

@@ -2,7 +2,7 @@
 
 Each session: the recorder starts, a talker starts 0.2 s later on a cell topic and another
 topic, and the session ends 2 s after the recorder started. What is observed: where the bag
-went, which topics it holds, and whether metadata.yaml counted anything before the close. Each
+went, which topics it holds, and whether metadata.yaml was written before the close. Each
 parameter is changed from its default to a value that must change one of these.
 """
 
@@ -14,7 +14,6 @@ from typing import Any
 
 import pytest
 import rclpy
-import yaml
 from rclpy.parameter import Parameter
 from std_msgs.msg import Float64MultiArray
 
@@ -27,7 +26,7 @@ CHANGED: dict[str, Any] = {
     "out": "elsewhere/session",  # the bag lands there, not in bags/fbcc_<date>_<time>
     "topics": ["other_topic"],  # the other topic recorded, the cell's not
     "discovery_period": 5.0,  # the talker, started late, is not found within the session
-    "checkpoint_period": 100.0,  # nothing counted in metadata.yaml before the close
+    "checkpoint_period": 100.0,  # no metadata.yaml before the close
 }
 
 
@@ -60,16 +59,15 @@ def _session(folder: Path, overrides: dict[str, Any]) -> dict[str, Any]:
                 talker = _talker(context)
                 executor.add_node(talker)
             executor.spin_once(timeout_sec=0.01)
-        metadata = recorder.folder / "metadata.yaml"  # written by the checkpoints and the close
-        before_close = yaml.safe_load(metadata.read_text()) if metadata.exists() else {}
+        # written by the checkpoints (with the counts of the flushed chunks) and the close
+        checkpointed = (recorder.folder / "metadata.yaml").exists()
         recorder.destroy_node()  # closes the bag
     finally:
         rclpy.try_shutdown(context=context)
-    info = before_close.get("rosbag2_bagfile_information", {})
     return {
         "where": recorder.folder.resolve().relative_to(folder.resolve()).parts[0],
         "recorded": sorted(t for t, n in read_bag(recorder.folder).counts.items() if n),
-        "counted_before_close": info.get("message_count", 0) > 0,
+        "checkpointed_before_close": checkpointed,
     }
 
 
@@ -84,7 +82,7 @@ def test_every_parameter_changes_what_the_recorder_does(
     monkeypatch.chdir(tmp_path)  # the default folder is relative to the working directory
     base = _session(tmp_path, {})
     assert base["where"] == "bags" and base["recorded"] == ["/joint_command"]
-    assert base["counted_before_close"]
+    assert base["checkpointed_before_close"]
     value = CHANGED[name]
     changed = _session(tmp_path, {name: str(tmp_path / value) if name == "out" else value})
     assert changed != base, f"{name} = {value!r} changed nothing"
