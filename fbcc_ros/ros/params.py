@@ -88,8 +88,9 @@ def run(node_factory: Callable[[], Node]) -> None:
     """The ``main()`` of every node (ros2/demos shape), on the executor
     :func:`~fbcc_ros.ros.executor.make_executor` chooses (the EventsExecutor by default).
 
-    A parameter that is refused at start-up (out of range, not a choice, a failed core check)
-    ends the process with exit status 2 and one line naming the value and what is allowed.
+    A parameter that is refused at start-up (out of range, not a choice, a failed core check),
+    or a file the node cannot make (the recorder's bag folder), ends the process with exit
+    status 2 and one line naming the value and what is allowed.
     SIGINT and SIGTERM end the spin between callbacks (rclpy's own handlers would raise inside
     a callback), then the node is destroyed and the process exits 0.
     """
@@ -110,6 +111,11 @@ def run(node_factory: Callable[[], Node]) -> None:
             node = node_factory()
         except (FbccError, ParameterException) as exc:
             print(f"{getattr(node_factory, '__name__', 'node')}: {exc}", file=sys.stderr)
+            raise SystemExit(2) from None
+        except OSError as exc:  # a file or folder the node needs (the recorder's bag)
+            where = f"{exc.filename}: " if exc.filename else ""
+            print(f"{getattr(node_factory, '__name__', 'node')}: {where}{exc.strerror or exc}",
+                  file=sys.stderr)  # fmt: skip
             raise SystemExit(2) from None
         executor = make_executor()
         executor.add_node(node)

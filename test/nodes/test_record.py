@@ -173,3 +173,17 @@ def test_a_full_disk_stops_the_recording_not_the_node(
     meta = yaml.safe_load((folder / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     bag = read_bag(folder)
     assert 0 < meta["message_count"] == sum(bag.counts.values())
+
+
+def test_a_bag_folder_that_cannot_be_made_stops_the_recorder_with_one_line(
+    tmp_path: Path,
+) -> None:
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    out = subprocess.run(
+        [sys.executable, "-m", "fbcc_ros.nodes.fbcc_record", "--ros-args", "-p",
+         f"out:={blocker / 'bag'}"],
+        capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert out.returncode == 2, out.stderr
+    assert "Traceback" not in out.stderr and f"{blocker}" in out.stderr.strip().splitlines()[-1]
