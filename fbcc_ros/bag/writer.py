@@ -113,8 +113,15 @@ class BagWriter:
 
     def checkpoint(self) -> None:
         """Rewrites metadata.yaml with the counts of what is on disk (the flushed chunks), so a
-        run killed later leaves metadata that does not count more than the file holds."""
-        self._write_metadata(self._on_disk, self._end_on_disk)
+        run killed later leaves metadata that does not count more than the file holds. An
+        ``OSError`` ends the writing as in :meth:`write`."""
+        if self.failed is not None:
+            return
+        try:
+            self._write_metadata(self._on_disk, self._end_on_disk)
+        except OSError as exc:
+            self.fail(exc)
+            raise
 
     def close(self) -> None:
         """Finishes the file (summary, footer) and the metadata; after a failed write, only
@@ -127,7 +134,7 @@ class BagWriter:
             self._file.close()
             self._write_metadata()
             return
-        for step in (self._file.close, self._cut_back, lambda: self._write_metadata()):
+        for step in (self._file.close, self._cut_back, self._write_metadata):
             try:
                 step()
             except OSError:

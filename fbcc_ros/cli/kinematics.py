@@ -31,7 +31,7 @@ import numpy as np
 
 from fbcc_ros.cli.common import out_dir
 from fbcc_ros.core.contact.model import FEATURE_NAMES
-from fbcc_ros.core.errors import FbccError, command
+from fbcc_ros.core.errors import command
 from fbcc_ros.core.kinematics.cell import CellKinematics, FollowResult, aligned_hole_at, follow
 from fbcc_ros.core.kinematics.ik import IkError, solve_ik
 from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel, Tool, pose
@@ -119,23 +119,19 @@ def main(argv: list[str] | None = None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
     out = out_dir(parser, args.out)
-    try:
-        sc = scenario_io.load(args.scenario)
-        law = args.law or sc.laws[0]
-        if law not in sc.laws:
-            parser.error(f"--law {law!r}: the scenario runs {list(sc.laws)}")
-        tool = None
-        if args.tool_xyz or args.tool_rpy:
-            tool = Tool(tuple(args.tool_xyz or Tool().xyz), tuple(args.tool_rpy or Tool().rpy))
-        robot = RobotModel.from_name(args.robot, tool)
-        if args.hole_xyz:
-            hole = pose(args.hole_xyz, args.hole_rpy or (0.0, 0.0, 0.0))
-        else:
-            hole = aligned_hole_at(robot.peg_in_base(robot.home))
-        cell = CellKinematics(robot, hole, sc.geometry.peg_radius)
-    except FbccError as exc:
-        print(f"fbcc-kinematics: {exc}", file=sys.stderr)
-        return 2
+    sc = scenario_io.load(args.scenario)
+    law = args.law or sc.laws[0]
+    if law not in sc.laws:
+        parser.error(f"--law {law!r}: the scenario runs {list(sc.laws)}")
+    tool = None
+    if args.tool_xyz or args.tool_rpy:
+        tool = Tool(tuple(args.tool_xyz or Tool().xyz), tuple(args.tool_rpy or Tool().rpy))
+    robot = RobotModel.from_name(args.robot, tool)
+    if args.hole_xyz:
+        hole = pose(args.hole_xyz, args.hole_rpy or (0.0, 0.0, 0.0))
+    else:
+        hole = aligned_hole_at(robot.peg_in_base(robot.home))
+    cell = CellKinematics(robot, hole, sc.geometry.peg_radius)
     dt = 1.0 / sc.rate_hz
     print(f"simulating {sc.name} with {law} ...", flush=True)
     _, trajectory = simulate(sc, law, record=True)

@@ -42,7 +42,7 @@ import numpy as np
 from fbcc_ros.bag.reader import Bag, read_bag
 from fbcc_ros.cli.sim_plots import Series, draw_planes, draw_trajectories
 from fbcc_ros.core.contact.model import FEATURE_NAMES, RESPONSE_NAMES, PegHole
-from fbcc_ros.core.errors import FbccError, InputError, command
+from fbcc_ros.core.errors import InputError, command
 
 NEEDED = {"/fbcc/features": "geometry_msgs/msg/PoseStamped",
           "/ft_sensor/compensated": "geometry_msgs/msg/WrenchStamped"}  # fmt: skip
@@ -281,11 +281,7 @@ def main(argv: list[str] | None = None) -> int:
         "--scenario", type=Path, default=None, help="the nominal pair (default: the bag's)"
     )
     args = parser.parse_args(argv)
-    try:
-        summary = report(args.bag, args.out, args.scenario)
-    except FbccError as exc:
-        print(f"fbcc-report: {exc}", file=sys.stderr)
-        return 2
+    summary = report(args.bag, args.out, args.scenario)
     if summary["truncated"]:
         print(f"fbcc-report: the bag is TRUNCATED ({summary['truncated']}); the report covers "
               "what it holds", file=sys.stderr)  # fmt: skip

@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -29,7 +28,7 @@ import numpy as np
 from fbcc_ros.cli.common import out_dir
 from fbcc_ros.cli.sim_plots import Series, draw_planes, draw_trajectories
 from fbcc_ros.core.contact.model import FEATURE_NAMES, RESPONSE_NAMES
-from fbcc_ros.core.errors import ConfigError, command
+from fbcc_ros.core.errors import command
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import SimResult, run_scenario
 
@@ -105,11 +104,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     out = out_dir(parser, args.out)
     start = time.perf_counter()
-    try:
-        runs = run_files(args.scenarios)
-    except ConfigError as exc:
-        print(f"fbcc-sim: {exc}", file=sys.stderr)
-        return 2
+    runs = run_files(args.scenarios)
     elapsed = time.perf_counter() - start
     write_run(runs, out, plots=not args.no_plots)
     summaries = {name: res.summary for name, res in runs}

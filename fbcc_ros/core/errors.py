@@ -65,6 +65,15 @@ def closest(name: str, names: Sequence[str]) -> str:
     return f"did you mean {match[0]!r}? " if match else ""
 
 
+def one_line(exc: FbccError | OSError) -> str:
+    """What went wrong, in the line a user reads: an FbccError's own text, or for an OSError
+    the file and the system's reason (``/proc/x: No such file or directory``)."""
+    if isinstance(exc, FbccError):
+        return str(exc)
+    where = f"{exc.filename}: " if exc.filename else ""
+    return f"{where}{exc.strerror or exc}"
+
+
 def command(prog: str) -> Callable[[Callable[..., int]], Callable[..., int]]:
     """Decorates a command-line tool's ``main``: bad input (an :class:`FbccError` from anywhere
     in it) or a file the system refuses (an ``OSError``: unwritable, a folder where a file was
@@ -76,11 +85,8 @@ def command(prog: str) -> Callable[[Callable[..., int]], Callable[..., int]]:
         def guarded(*args: Any, **kwargs: Any) -> int:
             try:
                 return main(*args, **kwargs)
-            except FbccError as exc:
-                print(f"{prog}: {exc}", file=sys.stderr)
-            except OSError as exc:
-                where = f"{exc.filename}: " if exc.filename else ""
-                print(f"{prog}: {where}{exc.strerror or exc}", file=sys.stderr)
+            except (FbccError, OSError) as exc:
+                print(f"{prog}: {one_line(exc)}", file=sys.stderr)
             return 2
 
         return guarded

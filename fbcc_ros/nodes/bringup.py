@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -262,28 +261,24 @@ def run_cell(
 @command("fbcc_bringup")
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    try:
-        if args.wait_for_recorder and not args.no_record:
-            raise InputError("--wait-for-recorder", True, "with --no-record (a recorder of "
-                             "your own; the bringup's own is always waited for)")  # fmt: skip
-        sc = scenario_io.load(scenario_io.find(args.scenario))
-        law = args.law or sc.laws[0]
-        print(
-            f"fbcc_bringup: {sc.name}, law {law}, {sc.duration:.1f} s at {sc.rate_hz:.0f} Hz "
-            "(mock cell, compensation, kinematics, controller over DDS, "
-            f"{'one process each' if args.processes else 'in one process'})",
-            flush=True,
-        )
-        logs = args.out / "logs" if args.out else None
-        bag = None if args.no_record else args.bag or default_folder(args.out or Path("."))
-        if bag is not None:
-            check_new_folder(bag)
-            print(f"recording into {bag}", flush=True)
-        summary = run_cell(args.scenario, law, args.draw_geometry, args.seed, args.processes,
-                           logs, bag, args.wait_for_recorder)  # fmt: skip
-    except FbccError as exc:
-        print(f"fbcc_bringup: {exc}", file=sys.stderr)
-        return 2
+    if args.wait_for_recorder and not args.no_record:
+        raise InputError("--wait-for-recorder", True, "with --no-record (a recorder of "
+                         "your own; the bringup's own is always waited for)")  # fmt: skip
+    sc = scenario_io.load(scenario_io.find(args.scenario))
+    law = args.law or sc.laws[0]
+    print(
+        f"fbcc_bringup: {sc.name}, law {law}, {sc.duration:.1f} s at {sc.rate_hz:.0f} Hz "
+        "(mock cell, compensation, kinematics, controller over DDS, "
+        f"{'one process each' if args.processes else 'in one process'})",
+        flush=True,
+    )
+    logs = args.out / "logs" if args.out else None
+    bag = None if args.no_record else args.bag or default_folder(args.out or Path("."))
+    if bag is not None:
+        check_new_folder(bag)
+        print(f"recording into {bag}", flush=True)
+    summary = run_cell(args.scenario, law, args.draw_geometry, args.seed, args.processes,
+                       logs, bag, args.wait_for_recorder)  # fmt: skip
     final = summary["final_features"]
     print(
         f"{'assembled' if summary['success'] else 'NOT assembled'}: phase {summary['phase']}"

@@ -98,12 +98,10 @@ class FbccRecordNode(Node):
         return record
 
     def checkpoint(self) -> None:
-        if self.bag.failed is None:
-            try:
-                self.bag.checkpoint()
-            except OSError as exc:
-                self.bag.fail(exc)
-                self._stop()
+        try:
+            self.bag.checkpoint()
+        except OSError:
+            self._stop()
 
     def _stop(self) -> None:
         """Writing failed (disk full, the folder gone): stop recording, say so in one line;

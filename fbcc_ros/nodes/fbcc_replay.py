@@ -38,7 +38,7 @@ import numpy as np
 
 from fbcc_ros.bag.reader import Bag, read_bag
 from fbcc_ros.core.contact.model import FEATURE_NAMES
-from fbcc_ros.core.errors import FbccError, InputError, command
+from fbcc_ros.core.errors import InputError, command
 
 #: Offline replay of a bag with its own parameters reproduces its commands within this, in m
 #: (offsets, depth) and rad (tilts): float rounding only. The committed test bag replays to
@@ -229,9 +229,6 @@ def main(argv: list[str] | None = None) -> int:
               f"topics, {span:.1f} s at rate {args.rate:g}{' (loop)' if args.loop else ''}",
               flush=True)  # fmt: skip
         sent = republish(bag, messages, args.rate, args.loop, ros_args, wait)
-    except FbccError as exc:
-        print(f"fbcc_replay: {exc}", file=sys.stderr)
-        return 2
     except KeyboardInterrupt:
         return 0
     print(f"fbcc_replay: published {sent} messages")

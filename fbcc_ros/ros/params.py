@@ -16,7 +16,7 @@ from rcl_interfaces.msg import (
 )
 from rclpy.node import Node
 
-from fbcc_ros.core.errors import FbccError
+from fbcc_ros.core.errors import FbccError, one_line
 from fbcc_ros.pipeline.parameters import Param, unknown_names
 from fbcc_ros.ros.executor import make_executor
 
@@ -109,13 +109,9 @@ def run(node_factory: Callable[[], Node]) -> None:
     try:
         try:
             node = node_factory()
-        except (FbccError, ParameterException) as exc:
-            print(f"{getattr(node_factory, '__name__', 'node')}: {exc}", file=sys.stderr)
-            raise SystemExit(2) from None
-        except OSError as exc:  # a file or folder the node needs (the recorder's bag)
-            where = f"{exc.filename}: " if exc.filename else ""
-            print(f"{getattr(node_factory, '__name__', 'node')}: {where}{exc.strerror or exc}",
-                  file=sys.stderr)  # fmt: skip
+        except (FbccError, ParameterException, OSError) as exc:  # OSError: the recorder's bag
+            said = str(exc) if isinstance(exc, ParameterException) else one_line(exc)
+            print(f"{getattr(node_factory, '__name__', 'node')}: {said}", file=sys.stderr)
             raise SystemExit(2) from None
         executor = make_executor()
         executor.add_node(node)

@@ -7,6 +7,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -25,32 +26,38 @@ ROOT = Path(__file__).resolve().parents[2]
 TOPICS = ["joint_states", "ft_sensor/raw"]
 
 
-def test_a_recorded_mock_cell_reads_back_with_rosbags(tmp_path: Path) -> None:
-    folder = tmp_path / "session"
+def _record_mock_cell(
+    folder: Path, seconds: float, check: Callable[[FbccRecordNode], None] = lambda _: None
+) -> tuple[int, int, list[str]]:
+    """A mock cell recorded into ``folder`` by fbcc_record for ``seconds``, in one executor;
+    ``check`` looks at the recorder before it closes its bag. Returns the wall-clock times [ns]
+    around the recording and the mock's joint names."""
     context = rclpy.Context()
     rclpy.init(context=context)
     executor = EventsExecutor(context=context)
     try:
         mock = MockCellNode(context=context)
-        recorder = FbccRecordNode(
-            context=context,
-            parameter_overrides=[
-                Parameter("out", value=str(folder)),
-                Parameter("topics", value=TOPICS),
-            ],
-        )
+        recorder = FbccRecordNode(context=context, parameter_overrides=[
+            Parameter("out", value=str(folder)), Parameter("topics", value=TOPICS)])  # fmt: skip
         for node in (mock, recorder):
             executor.add_node(node)
         start = time.time_ns()
-        deadline = time.monotonic() + 2.0
+        deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.01)
+        check(recorder)
         recorder.destroy_node()  # closes the bag
         end = time.time_ns()
         joint_names = list(mock.names)
         mock.destroy_node()
     finally:
         rclpy.try_shutdown(context=context)
+    return start, end, joint_names
+
+
+def test_a_recorded_mock_cell_reads_back_with_rosbags(tmp_path: Path) -> None:
+    folder = tmp_path / "session"
+    start, end, joint_names = _record_mock_cell(folder, 2.0)
     with AnyReader([folder]) as reader:
         counts = {c.topic: c.msgcount for c in reader.connections}
         assert {c.msgtype for c in reader.connections} == {
@@ -151,24 +158,12 @@ def test_a_full_disk_stops_the_recording_not_the_node(
     monkeypatch.setattr(Path, "open", lambda self, mode="r", *a, **k: Disk(str(self), "wb")
                         if self.suffix == ".mcap" else opened(self, mode, *a, **k))  # fmt: skip
     folder = tmp_path / "full"
-    context = rclpy.Context()
-    rclpy.init(context=context)
-    executor = EventsExecutor(context=context)
-    try:
-        mock = MockCellNode(context=context)
-        recorder = FbccRecordNode(context=context, parameter_overrides=[
-            Parameter("out", value=str(folder)), Parameter("topics", value=TOPICS)])  # fmt: skip
-        for node in (mock, recorder):
-            executor.add_node(node)
-        deadline = time.monotonic() + 3.0
-        while time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.01)
+
+    def stopped(recorder: FbccRecordNode) -> None:
         assert recorder.bag.failed is not None and "No space left" in recorder.bag.failed
         assert not list(recorder.subscriptions)
-        recorder.destroy_node()
-        mock.destroy_node()
-    finally:
-        rclpy.try_shutdown(context=context)
+
+    _record_mock_cell(folder, 3.0, stopped)
     monkeypatch.undo()
     meta = yaml.safe_load((folder / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     bag = read_bag(folder)

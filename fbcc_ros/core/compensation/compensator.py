@@ -273,9 +273,8 @@ class Compensator:
             self.counts["out_of_order"] += 1
             return None
         reading = np.asarray(wrench, dtype=float)
-        plausible = reading.shape != (6,) or not np.isfinite(reading).all() or (
-            self.guard.raw(stamp, reading))  # a malformed reading is counted below  # fmt: skip
-        if self.guard.tripped or not plausible:
+        checkable = reading.shape == (6,) and np.isfinite(reading).all()  # else counted below
+        if self.guard.tripped or (checkable and not self.guard.raw(stamp, reading)):
             self.counts["guard"] += 1
             return None
         state = self._sensor_state()

@@ -19,8 +19,8 @@ At rest this is ``F = m g``, ``tau = c x m g``: the weight, as a static sensor r
 Compensation subtracts this wrench and the bias; what is left is the contact wrench.
 
 Pinocchio's spatial algebra computes it (its inertia and motion actions), and its body
-regressor gives the calibration's linear form: 18 µs and 9 µs a call here, against 60 µs and
-66 µs for the same equations written with numpy 3-vectors.
+regressor gives the calibration's linear form: 18.5 µs and 9.2 µs a call, against 60.3 µs and
+66.4 µs for the same equations on numpy 3-vectors (``timeit``, 20 000 calls, 2026-11-23).
 """
 
 from __future__ import annotations
