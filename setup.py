@@ -36,6 +36,7 @@ setup(
             "fbcc-kinematics = fbcc_ros.cli.kinematics:main",
             "fbcc-calibrate = fbcc_ros.cli.calibrate:main",
             "fbcc-report = fbcc_ros.cli.report:main",
+            "fbcc-recover = fbcc_ros.cli.recover:main",
             "fbcc_bringup = fbcc_ros.nodes.bringup:main",
             "dynamic_compensation = fbcc_ros.nodes.dynamic_compensation:main",
             "kinematics = fbcc_ros.nodes.kinematics:main",

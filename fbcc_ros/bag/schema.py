@@ -4,7 +4,9 @@ rosbag2 (``LocalMessageDefinitionSource``) builds the ``ros2msg`` schema from
 ``share/<pkg>/msg/<Type>.msg`` verbatim, then appends each dependency once, depth-first, in
 sorted order, each after a line of 80 ``=`` and ``MSG: <name as written in the field>``. The
 type hash (``RIHS01_…``) is the first entry of ``share/<pkg>/msg/<Type>.json``. Both files
-ship with the message wheels (PLATFORM.md).
+ship with the message wheels (PLATFORM.md). The offered QoS are the YAML of rosbag2_storage's
+``qos.cpp``, version 9: policies by name, durations as ``{sec, nsec}`` (infinite:
+``RMW_DURATION_INFINITE``, 9223372036 s 854775807 ns).
 """
 
 from __future__ import annotations
@@ -17,6 +19,8 @@ import sys
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
+
+import yaml
 
 from fbcc_ros.core.errors import InputError
 
@@ -94,16 +98,25 @@ def message_class(type_name: str) -> Any:
         raise InputError("type", type_name, "a message type installed for Python") from None
 
 
-_NEVER = {"sec": 2147483647, "nsec": 4294967295}  # rmw's "infinite" duration
+#: rmw's RMW_DURATION_INFINITE: what rosbag2 Jazzy writes for an infinite deadline, lifespan or
+#: lease duration, since it writes the rmw_time_t as it is (rosbag2_storage qos.cpp,
+#: ``convert<rmw_time_t>::encode``).
+INFINITE = {"sec": 9223372036, "nsec": 854775807}
+#: The Foxy-era "infinite" durations (Fast DDS, Connext; Cyclone's 2**63 - 1 ns is INFINITE
+#: itself), which earlier fbcc_ros bags hold too: rosbag2 reads them as INFINITE
+#: (``convert<rmw_time_t>::decode``), and so does :func:`offered_qos`.
+FOXY_INFINITE = ({"sec": 2147483647, "nsec": 4294967295}, {"sec": 2147483647, "nsec": 2147483647})
+DURATIONS = ("deadline", "lifespan", "liveliness_lease_duration")
 
 
 def qos_profiles(profiles: list[Any]) -> list[dict[str, Any]]:
-    """rclpy QoSProfiles → the ``offered_qos_profiles`` entries of a version 9 bag."""
+    """rclpy QoSProfiles → the ``offered_qos_profiles`` entries of a version 9 bag, as rosbag2
+    Jazzy writes them: policies by name, durations as rmw gives them (infinite: INFINITE,
+    unspecified: 0 s 0 ns)."""
 
     def duration(d: Any) -> dict[str, int]:
-        ns = d.nanoseconds
-        return dict(_NEVER) if ns <= 0 or ns >= 2**63 - 1 else {"sec": ns // 10**9,
-                                                                "nsec": ns % 10**9}  # fmt: skip
+        ns = max(d.nanoseconds, 0)  # rmw_time_t is unsigned
+        return dict(INFINITE) if ns >= 2**63 - 1 else {"sec": ns // 10**9, "nsec": ns % 10**9}
 
     return [
         {
@@ -119,3 +132,22 @@ def qos_profiles(profiles: list[Any]) -> list[dict[str, Any]]:
         }
         for p in profiles
     ]
+
+
+def offered_qos(text: str, jazzy: bool = True) -> list[dict[str, Any]]:
+    """A channel's ``offered_qos_profiles`` (rosbag2's YAML list) → its profiles, a Foxy-era
+    infinite duration read as INFINITE; with ``jazzy=False`` the durations as written (what
+    metadata.yaml repeats: rosbags finds a topic's channel by its QoS as parsed, unchanged).
+    None if absent or garbled."""
+    try:
+        profiles = yaml.safe_load(text or "[]")
+    except yaml.YAMLError:
+        return []
+    if not isinstance(profiles, list):
+        return []
+    read = [dict(p) for p in profiles if isinstance(p, dict)]
+    for profile in read if jazzy else ():
+        for key in DURATIONS:
+            if profile.get(key) in FOXY_INFINITE:
+                profile[key] = dict(INFINITE)
+    return read

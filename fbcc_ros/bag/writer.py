@@ -2,27 +2,39 @@
 
 Crash safety: the chunks are small (256 KiB, about 0.3 s of the cell's topics) and the file
 is flushed as soon as a chunk lands in it, so a recorder killed mid-write leaves every finished
-chunk on disk;
-:func:`fbcc_ros.bag.reader.open_bag` reads such a bag up to its last whole chunk and says it is
-truncated. ``metadata.yaml`` (version 9, as rosbag2 Jazzy writes it) is written on close, and
-rewritten at each ``checkpoint`` so a killed run still has one.
+chunk on disk; :func:`fbcc_ros.bag.reader.read_bag` reads such a bag up to its last whole chunk
+and says it is truncated, and :func:`fbcc_ros.bag.recover.recover` makes it whole.
+``metadata.yaml`` (version 9, as rosbag2 Jazzy writes it) is rewritten, atomically, each time a
+chunk lands, with the counts of the chunks on disk: after a SIGKILL it never counts more than
+the file holds, and lags it by at most the chunk being written when the process died. On close
+it counts everything, and the same YAML goes into the file as rosbag2_storage_mcap's metadata
+record (``McapStorage::update_metadata``: name ``rosbag2``, key ``serialized_metadata``).
 """
 
 from __future__ import annotations
 
 import os
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 import yaml
+from mcap.records import Attachment
 from mcap.writer import CompressionType, Writer
 
-from fbcc_ros.bag.schema import message_definition, qos_profiles, type_hash
+from fbcc_ros.bag.schema import message_definition, offered_qos, qos_profiles, type_hash
 from fbcc_ros.core.errors import InputError
 
 CHUNK_SIZE = 256 * 1024
 METADATA_VERSION = 9  # rosbag2 on Jazzy
+#: rosbag2_storage_mcap's metadata record: its name and the key of the bag's metadata YAML
+ROSBAG2_RECORD, SERIALIZED_METADATA = "rosbag2", "serialized_metadata"
+#: metadata.yaml is rewritten per chunk: libyaml's dumper takes 1.7 ms where PyYAML's takes 9
+_dump = partial(yaml.dump, Dumper=getattr(yaml, "CSafeDumper", yaml.SafeDumper),
+                sort_keys=False)  # fmt: skip
 
 
 def check_new_folder(folder: Path) -> Path:
@@ -40,15 +52,19 @@ class BagWriter:
         self.folder.mkdir(parents=True, exist_ok=True)
         self.path = self.folder / f"{self.folder.name}_0.mcap"
         self._file = self.path.open("wb")
-        self._flushed = 0
         self._mcap = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
         self._mcap.start(profile="ros2", library="fbcc_ros")
+        self._file.flush()
+        self._flushed = self._file.tell()  # the header: a later change of size is a chunk
         self._schemas: dict[str, int] = {}
-        self.topics: dict[str, dict[str, Any]] = {}  # name -> metadata and count
+        #: name -> type, serialization format, offered QoS, type hash and message count
+        self.topics: dict[str, dict[str, Any]] = {}
         self._channels: dict[str, int] = {}
         self.start_ns: int | None = None
         self.end_ns = 0
         self.closed = False
+        #: metadata.yaml's ``custom_data`` (rosbag2's map of strings), ``closed`` added
+        self.custom_data = {"writer": "fbcc_ros"}
         #: why writing failed (disk full, the folder gone), None while it works
         self.failed: str | None = None
         self._on_disk: dict[str, int] = {}  # the counts and end time of what is flushed
@@ -58,31 +74,50 @@ class BagWriter:
         """``qos``: the publishers' offered rclpy QoSProfiles."""
         if topic in self._channels:
             return
+        profiles = qos_profiles(qos)
+        self.add_channel(topic, type_name, message_definition(type_name).encode(), {
+            "offered_qos_profiles": yaml.safe_dump(profiles, sort_keys=False),
+            "topic_type_hash": type_hash(type_name),
+        })  # fmt: skip
+
+    def add_channel(self, topic: str, type_name: str, definition: bytes,
+                    metadata: dict[str, str], schema_encoding: str = "ros2msg",
+                    message_encoding: str = "cdr") -> None:  # fmt: skip
+        """A topic as a bag describes it: the schema's ``definition`` and the channel's
+        ``metadata`` (rosbag2's ``offered_qos_profiles`` YAML and ``topic_type_hash``), kept
+        verbatim. A type's first schema serves every topic of that type."""
+        if topic in self._channels:
+            return
         if type_name not in self._schemas:
             self._schemas[type_name] = self._mcap.register_schema(
-                name=type_name, encoding="ros2msg", data=message_definition(type_name).encode()
+                name=type_name, encoding=schema_encoding, data=definition
             )
-        profiles = qos_profiles(qos)
         self._channels[topic] = self._mcap.register_channel(
-            topic=topic,
-            message_encoding="cdr",
-            schema_id=self._schemas[type_name],
-            metadata={
-                "offered_qos_profiles": yaml.safe_dump(profiles, sort_keys=False),
-                "topic_type_hash": type_hash(type_name),
-            },
-        )
-        self.topics[topic] = {"type": type_name, "qos": profiles, "count": 0}
+            topic=topic, message_encoding=message_encoding, schema_id=self._schemas[type_name],
+            metadata=metadata,
+        )  # fmt: skip
+        self.topics[topic] = {
+            "type": type_name,
+            "format": message_encoding,
+            "qos": offered_qos(metadata.get("offered_qos_profiles", ""), jazzy=False),
+            "hash": metadata.get("topic_type_hash", ""),
+            "count": 0,
+        }
 
-    def write(self, topic: str, data: bytes, log_time_ns: int | None = None) -> None:
-        """One CDR message, received at ``log_time_ns`` (now if None). An ``OSError`` (disk
-        full) is raised once and ends the writing: the counts go back to what is on disk, and
-        later messages are dropped."""
+    def write(self, topic: str, data: bytes, log_time_ns: int | None = None,
+              publish_time_ns: int | None = None) -> None:  # fmt: skip
+        """One CDR message, received at ``log_time_ns`` (now if None) and sent at
+        ``publish_time_ns`` (the publisher's source timestamp, which rosbag2 Jazzy stores as
+        publish time; the receipt if None) [ns since the epoch]. An ``OSError`` (disk full) is
+        raised once and ends the writing: the counts go back to what is on disk, and later
+        messages are dropped."""
         if self.failed is not None:
             return  # after a failed write nothing more goes in: the file ends where it failed
         t = time.time_ns() if log_time_ns is None else log_time_ns
-        try:
-            self._mcap.add_message(self._channels[topic], log_time=t, data=data, publish_time=t)
+        sent = t if publish_time_ns is None else publish_time_ns
+        with self._writing():
+            self._mcap.add_message(self._channels[topic], log_time=t, data=data,
+                                   publish_time=sent)  # fmt: skip
             self.topics[topic]["count"] += 1
             self.start_ns = t if self.start_ns is None else min(self.start_ns, t)
             self.end_ns = max(self.end_ns, t)
@@ -91,6 +126,29 @@ class BagWriter:
                 self._flushed = self._file.tell()
                 self._on_disk = {name: m["count"] for name, m in self.topics.items()}
                 self._end_on_disk = self.end_ns
+                self._write_metadata(self._on_disk, self._end_on_disk)  # after the chunk
+
+    def add_metadata(self, name: str, data: dict[str, str]) -> None:
+        """An mcap Metadata record (a name and a map of strings), on disk at once."""
+        with self._writing():
+            self._mcap.add_metadata(name, data)
+            self._file.flush()
+            self._flushed = self._file.tell()
+
+    def add_attachment(self, attachment: Attachment) -> None:
+        """An mcap Attachment record (a named file), on disk at once."""
+        with self._writing():
+            self._mcap.add_attachment(attachment.create_time, attachment.log_time,
+                                      attachment.name, attachment.media_type,
+                                      attachment.data)  # fmt: skip
+            self._file.flush()
+            self._flushed = self._file.tell()
+
+    @contextmanager
+    def _writing(self) -> Iterator[None]:
+        """An ``OSError`` inside ends the writing (:meth:`fail`) and is raised."""
+        try:
+            yield
         except OSError as exc:
             self.fail(exc)
             raise
@@ -112,24 +170,24 @@ class BagWriter:
             pass  # the file stays longer: our reader still stops at its last whole chunk
 
     def checkpoint(self) -> None:
-        """Rewrites metadata.yaml with the counts of what is on disk (the flushed chunks), so a
-        run killed later leaves metadata that does not count more than the file holds. An
-        ``OSError`` ends the writing as in :meth:`write`."""
+        """Rewrites metadata.yaml with the counts of what is on disk (the flushed chunks), as
+        each chunk does; before the first chunk, it lists the topics. An ``OSError`` ends the
+        writing as in :meth:`write`."""
         if self.failed is not None:
             return
-        try:
+        with self._writing():
             self._write_metadata(self._on_disk, self._end_on_disk)
-        except OSError as exc:
-            self.fail(exc)
-            raise
 
     def close(self) -> None:
-        """Finishes the file (summary, footer) and the metadata; after a failed write, only
-        what can still be written (the file then reads as truncated after its last chunk)."""
+        """Finishes the file (the ``rosbag2`` metadata record, summary, footer) and the
+        metadata; after a failed write, only what can still be written (the file then reads as
+        truncated after its last chunk)."""
         if self.closed:
             return
         self.closed = True
         if self.failed is None:
+            serialized = _dump(self._info())
+            self._mcap.add_metadata(ROSBAG2_RECORD, {SERIALIZED_METADATA: serialized})
             self._mcap.finish()
             self._file.close()
             self._write_metadata()
@@ -140,15 +198,16 @@ class BagWriter:
             except OSError:
                 pass  # the disk is still full: the bag keeps what was flushed
 
-    def _write_metadata(self, counts: dict[str, int] | None = None, end_ns: int | None = None
-                        ) -> None:  # fmt: skip
-        """metadata.yaml with ``counts`` per topic up to ``end_ns`` (default: all written)."""
+    def _info(self, counts: dict[str, int] | None = None, end_ns: int | None = None
+              ) -> dict[str, Any]:  # fmt: skip
+        """The bag's metadata (rosbag2's BagMetadata, version 9) with ``counts`` per topic up
+        to ``end_ns`` (default: all written)."""
         counts = counts if counts is not None else {n: t["count"] for n, t in self.topics.items()}
         end = self.end_ns if end_ns is None else end_ns
         start = self.start_ns or 0
         duration = max(end - start, 0) if self.start_ns is not None else 0
         count = sum(counts.values())
-        info = {
+        return {
             "version": METADATA_VERSION,
             "storage_identifier": "mcap",
             "duration": {"nanoseconds": duration},
@@ -159,9 +218,9 @@ class BagWriter:
                     "topic_metadata": {
                         "name": name,
                         "type": t["type"],
-                        "serialization_format": "cdr",
+                        "serialization_format": t["format"],
                         "offered_qos_profiles": t["qos"],
-                        "type_description_hash": type_hash(t["type"]),
+                        "type_description_hash": t["hash"],
                     },
                     "message_count": counts.get(name, 0),
                 }
@@ -178,11 +237,15 @@ class BagWriter:
                     "message_count": count,
                 }
             ],
-            "custom_data": {"writer": "fbcc_ros", "closed": str(self.closed).lower()},
+            "custom_data": {**self.custom_data, "closed": str(self.closed).lower()},
             "ros_distro": "jazzy",
         }
+
+    def _write_metadata(self, counts: dict[str, int] | None = None, end_ns: int | None = None
+                        ) -> None:  # fmt: skip
+        """metadata.yaml of :meth:`_info`, replaced atomically (a reader never sees half)."""
         tmp = self.folder / "metadata.yaml.tmp"
-        tmp.write_text(yaml.safe_dump({"rosbag2_bagfile_information": info}, sort_keys=False))
+        tmp.write_text(_dump({"rosbag2_bagfile_information": self._info(counts, end_ns)}))
         tmp.replace(self.folder / "metadata.yaml")
 
     def __enter__(self) -> BagWriter:

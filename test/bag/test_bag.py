@@ -5,6 +5,7 @@ from __future__ import annotations
 import errno
 import io
 import os
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +13,7 @@ import pytest
 import yaml
 from geometry_msgs.msg import WrenchStamped
 from mcap.reader import make_reader
+from rclpy.duration import Duration, Infinite
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.highlevel import AnyReader
@@ -19,7 +21,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
 from fbcc_ros.bag.reader import read_bag
-from fbcc_ros.bag.schema import message_definition
+from fbcc_ros.bag.schema import message_definition, type_hash
 from fbcc_ros.bag.writer import BagWriter
 from fbcc_ros.core.errors import InputError
 
@@ -173,3 +175,109 @@ def test_a_full_disk_ends_the_writing_cleanly_and_the_metadata_counts_what_is_on
     on_disk = read_bag(folder)
     assert on_disk.truncated  # no summary or footer: the disk was full
     assert 0 < meta["message_count"] == on_disk.counts["/ft_sensor/raw"] < written
+
+
+def _metadata(folder: Path) -> dict[str, Any]:
+    return dict(yaml.safe_load((folder / "metadata.yaml").read_text())[
+        "rosbag2_bagfile_information"])  # fmt: skip
+
+
+def test_closing_writes_rosbag2s_metadata_record_with_the_bags_metadata(tmp_path: Path) -> None:
+    """As rosbag2_storage_mcap on close: a Metadata record ``rosbag2`` whose
+    ``serialized_metadata`` is the bag's metadata YAML, the same as metadata.yaml's."""
+    folder = tmp_path / "run"
+    _write(folder, n=50)
+    with (folder / "run_0.mcap").open("rb") as f:
+        reader = make_reader(f)
+        indexed = [index.name for index in reader.get_summary().metadata_indexes]  # type: ignore[union-attr]
+        records = list(reader.iter_metadata())
+    assert indexed == ["rosbag2"] and [r.name for r in records] == ["rosbag2"]
+    serialized = yaml.safe_load(records[0].metadata["serialized_metadata"])
+    assert serialized == _metadata(folder)
+    assert serialized["message_count"] == 101 and serialized["custom_data"]["closed"] == "true"
+
+
+def test_publish_time_is_the_senders_and_defaults_to_the_receipt(tmp_path: Path) -> None:
+    folder = tmp_path / "run"
+    with BagWriter(folder) as bag:
+        bag.add_topic("/fbcc/phase", "std_msgs/msg/String", [QoSProfile(depth=1)])
+        bag.write("/fbcc/phase", serialize_message(String(data="a")), T0 + 5_000, T0 + 1_234)
+        bag.write("/fbcc/phase", serialize_message(String(data="b")), T0 + 9_000)
+    with (folder / "run_0.mcap").open("rb") as f:
+        times = [(m.log_time, m.publish_time) for _, _, m in make_reader(f).iter_messages()]
+    assert times == [(T0 + 5_000, T0 + 1_234), (T0 + 9_000, T0 + 9_000)]
+    assert [(m.log_time_ns, m.publish_time_ns) for m in read_bag(folder).messages] == times
+
+
+JAZZY_INFINITE = {"sec": 9223372036, "nsec": 854775807}
+#: offered_qos_profiles as earlier fbcc_ros bags (and Foxy's Fast DDS) wrote "infinite"
+FOXY_QOS = yaml.safe_dump([{
+    "history": "keep_last", "depth": 1, "reliability": "reliable", "durability": "volatile",
+    "deadline": {"sec": 2147483647, "nsec": 4294967295},
+    "lifespan": {"sec": 2147483647, "nsec": 4294967295}, "liveliness": "automatic",
+    "liveliness_lease_duration": {"sec": 2147483647, "nsec": 4294967295},
+    "avoid_ros_namespace_conventions": False}], sort_keys=False)  # fmt: skip
+
+
+def test_qos_durations_are_written_as_jazzy_writes_them_and_read_in_both_forms(
+    tmp_path: Path,
+) -> None:
+    """Infinite (what the graph reports for a default publisher) is RMW_DURATION_INFINITE,
+    unspecified 0 s 0 ns, anything else split into sec and nsec; a channel with the Foxy-era
+    infinity is kept verbatim in the file and read as infinite, and rosbags reads both."""
+    folder = tmp_path / "run"
+    graph = QoSProfile(depth=10, deadline=Infinite, lifespan=Infinite,
+                       liveliness_lease_duration=Infinite)  # fmt: skip
+    declared = QoSProfile(depth=5, deadline=Duration(seconds=1, nanoseconds=500_000_000))
+    with BagWriter(folder) as bag:
+        bag.add_topic("/fbcc/phase", "std_msgs/msg/String", [graph, declared])
+        definition = message_definition("std_msgs/msg/String").encode()
+        described = {"offered_qos_profiles": FOXY_QOS,
+                     "topic_type_hash": type_hash("std_msgs/msg/String")}  # fmt: skip
+        bag.add_channel("/old", "std_msgs/msg/String", definition, described)
+        for topic in ("/fbcc/phase", "/old"):
+            bag.write(topic, serialize_message(String(data="x")), T0)
+    with (folder / "run_0.mcap").open("rb") as f:
+        channels = {c.topic: c.metadata for c in make_reader(f).get_summary().channels.values()}  # type: ignore[union-attr]
+    written = yaml.safe_load(channels["/fbcc/phase"]["offered_qos_profiles"])
+    assert written[0]["deadline"] == written[0]["lifespan"] == JAZZY_INFINITE
+    assert written[0]["liveliness_lease_duration"] == JAZZY_INFINITE
+    assert written[1]["deadline"] == {"sec": 1, "nsec": 500_000_000}
+    assert written[1]["lifespan"] == {"sec": 0, "nsec": 0}
+    assert channels["/old"]["offered_qos_profiles"] == FOXY_QOS  # verbatim in the file
+    read = read_bag(folder).qos
+    assert read["/fbcc/phase"] == written
+    assert read["/old"][0]["deadline"] == JAZZY_INFINITE
+    assert read["/old"][0]["liveliness_lease_duration"] == JAZZY_INFINITE
+    # metadata.yaml repeats each channel's QoS as written: rosbags finds a topic's channel by it
+    listed = {t["topic_metadata"]["name"]: t["topic_metadata"]["offered_qos_profiles"]
+              for t in _metadata(folder)["topics_with_message_count"]}  # fmt: skip
+    assert listed == {topic: yaml.safe_load(c["offered_qos_profiles"])
+                      for topic, c in channels.items()}  # fmt: skip
+    with AnyReader([folder]) as reader:
+        qos = {c.topic: c.ext.offered_qos_profiles for c in reader.connections}  # type: ignore[attr-defined]
+        assert sorted(c.topic for c, _, _ in reader.messages()) == ["/fbcc/phase", "/old"]
+    assert (qos["/fbcc/phase"][0].deadline.sec, qos["/fbcc/phase"][0].deadline.nsec) == (
+        9223372036, 854775807)  # fmt: skip
+
+
+def test_metadata_follows_every_chunk_and_never_counts_more_than_the_file(tmp_path: Path) -> None:
+    """No checkpoint but one before the first chunk: after every message, what a SIGKILL would
+    leave (the file's bytes, metadata.yaml) agrees: the metadata counts what the file holds,
+    chunk after chunk."""
+    folder = tmp_path / "run"
+    bag = BagWriter(folder, chunk_size=4096)
+    bag.add_topic("/ft_sensor/raw", "geometry_msgs/msg/WrenchStamped", [QoSProfile(depth=10)])
+    bag.write("/ft_sensor/raw", serialize_message(_wrench(0)), T0)
+    bag.checkpoint()  # no chunk yet: nothing on disk to count
+    assert _metadata(folder)["message_count"] == 0
+    killed = tmp_path / "killed"
+    killed.mkdir()
+    counted = []
+    for i in range(1, 400):
+        bag.write("/ft_sensor/raw", serialize_message(_wrench(i)), T0 + i * 1_000_000)
+        shutil.copyfile(bag.path, killed / "run_0.mcap")
+        on_disk = read_bag(killed).counts["/ft_sensor/raw"]
+        counted.append(_metadata(folder)["topics_with_message_count"][0]["message_count"])
+        assert counted[-1] == on_disk, i
+    assert len(set(counted)) > 5  # several chunks landed
