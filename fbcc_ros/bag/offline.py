@@ -152,8 +152,9 @@ def replay_offline(bag: Bag, given: dict[str, dict[str, Any]]) -> OfflineResult:
             continue
         counts["compensated"] += 1
         if start is not None:
-            if key < start:
-                continue  # the insertion had not started yet
+            if key < start:  # not started yet: the idle controller hears it, as live
+                ctrl.wrench(stamp, stamp, out.wrench)
+                continue
             if key not in flow.commands:
                 counts["dropped_by_controller"] += 1
                 continue

@@ -181,6 +181,7 @@ def bench_controller(steps: int) -> dict[str, tuple[float, float]]:
         sup = Supervisor(make_law("fbcc", sc.geometry, params, sc.insertion), 1e-3,
                          SafetyLimits(timeout=1e9))  # fmt: skip
         sup.on_features(0.0, poses[0])
+        sup.on_response(0.0, measured[0])  # idle: a start needs a recent wrench
         sup.start(0.0)
         times = []
         for k in range(len(measured)):

@@ -43,6 +43,15 @@ class NodeSpec:
     own_process: bool = False
 
 
+#: The chain links in one process: (upstream node, its outlet, downstream node, its callback).
+CHAIN = (("dynamic_compensation", "out_compensated", "fbcc_controller", "on_wrench"),
+         # a trip reaches the controller in the callback that trips it: its hold goes out at
+         # once, not after the executor's queue (22 ms of further pressing, measured)
+         ("dynamic_compensation", "out_guard", "fbcc_controller", "on_fault"),
+         ("kinematics", "out_features", "fbcc_controller", "on_features"),
+         ("fbcc_controller", "out_command", "kinematics", "on_command"))  # fmt: skip
+
+
 def ros_args(parameters: dict[str, Any]) -> list[str]:
     """``--ros-args -p name:=value ...`` (values in YAML, as ``ros2 run`` takes them)."""
     args = ["--ros-args"]
@@ -77,7 +86,7 @@ class CellRun:
         self.procs: dict[str, subprocess.Popen[bytes]] = {}
         self._callback_cpu: dict[str, int] = {}
         self._nested: list[int] = []
-        #: the links made by :meth:`_chain` ("upstream -> downstream")
+        #: the links made by :meth:`_chain` ("upstream.outlet -> downstream.callback")
         self.chained: list[str] = []
         self._time_callbacks("observer", self.observer)
         self.executor.add_node(self.observer)
@@ -109,7 +118,7 @@ class CellRun:
 
     def _time_callbacks(self, name: str, node: Any) -> None:
         """Wraps every callback of ``node`` to sum its thread CPU time under ``name``."""
-        self._callback_cpu[name] = 0
+        self._callback_cpu.setdefault(name, 0)  # a restarted node sums on
         for entity in (*node.subscriptions, *node.timers, *node.services):
             entity.callback = self._timed(name, entity.callback)
 
@@ -130,22 +139,74 @@ class CellRun:
 
         return timed
 
-    def _chain(self) -> None:
+    def _chain(self, only: str | None = None) -> None:
         """The cell's nodes in this process, chained: each output goes to the node that takes
         it as a call in the same callback, not through DDS and the executor (that node's
-        subscription to it is removed); it is still published for everyone else."""
-        links = (("dynamic_compensation", "out_compensated", "fbcc_controller", "on_wrench"),
-                 ("kinematics", "out_features", "fbcc_controller", "on_features"),
-                 ("fbcc_controller", "out_command", "kinematics", "on_command"))  # fmt: skip
-        for up_name, outlet, down_name, callback in links:
+        subscription to it is removed); it is still published for everyone else. ``only``:
+        the links of that node alone (restarted, :meth:`restart`)."""
+        for up_name, outlet, down_name, callback in CHAIN:
             up, down = self.nodes.get(up_name), self.nodes.get(down_name)
             if up is None or down is None or not (hasattr(up, outlet) and hasattr(down, callback)):
                 continue  # a node of another kind (the benchmark's bare chain)
+            if only is not None and only not in (up_name, down_name):
+                continue
             topic = down.resolve_topic_name(getattr(up, outlet).publisher.topic_name)
             for sub in [s for s in down.subscriptions if s.topic_name == topic]:
                 down.destroy_subscription(sub)
-            getattr(up, outlet).local.append(self._timed(down_name, getattr(down, callback)))
-            self.chained.append(f"{up_name} -> {down_name}")
+            local = getattr(up, outlet).local
+            local[:] = [c for c in local if getattr(c, "chained_to", None) != down_name]
+            link = self._timed(down_name, getattr(down, callback))
+            link.chained_to = down_name  # type: ignore[attr-defined]
+            local.append(link)
+            if only is None:
+                self.chained.append(f"{up_name}.{outlet} -> {down_name}.{callback}")
+
+    def restart(self, name: str, parameters: dict[str, Any] | None = None) -> None:
+        """Kills the node ``name`` of this process and starts it anew (with ``parameters``
+        changed, if given) while the others run on: it is built in a thread as this one
+        spins, as a restarted process would come up beside running ones, then joins the
+        executor and its chain links."""
+        import threading
+
+        spec = next(s for s in self.specs if s.name == name)
+        if parameters:
+            spec = NodeSpec(spec.name, spec.factory, {**spec.parameters, **parameters})
+        old = self.nodes.pop(name)
+        for up_name, outlet, down_name, _ in CHAIN:  # nothing calls into the dead node
+            up = self.nodes.get(up_name)
+            if down_name == name and up is not None and hasattr(up, outlet):
+                local = getattr(up, outlet).local
+                local[:] = [c for c in local if getattr(c, "chained_to", None) != name]
+        self.executor.remove_node(old)
+        for entity in (*old.subscriptions, *old.timers, *old.services):
+            entity.callback = _dead  # an event the executor queued before the removal
+        old.destroy_node()
+        built: list[Any] = []
+        failed: list[BaseException] = []
+
+        def build() -> None:
+            try:
+                from rclpy.parameter import Parameter
+
+                overrides = [Parameter(k, value=v) for k, v in spec.parameters.items()]
+                node = spec.factory(context=self.context, parameter_overrides=overrides)
+                if hasattr(node, "preload"):
+                    node.preload()
+                built.append(node)
+            except BaseException as exc:  # raised below, in this thread
+                failed.append(exc)
+
+        thread = threading.Thread(target=build, name=f"restart {name}")
+        thread.start()
+        while thread.is_alive():
+            self.executor.spin_once(timeout_sec=0.01)
+        if failed:
+            raise failed[0]
+        node = built[0]
+        self._time_callbacks(name, node)
+        self.nodes[name] = node
+        self.executor.add_node(node)
+        self._chain(only=name)
 
     def _spawn(self, spec: NodeSpec) -> None:
         self.log_dir.mkdir(parents=True, exist_ok=True)
@@ -222,6 +283,10 @@ class CellRun:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _dead(*_: Any) -> None:
+    """The callback of a killed node's entity."""
 
 
 def _process_cpu(pid: int) -> float:

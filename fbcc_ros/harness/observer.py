@@ -30,6 +30,8 @@ class Observer(Node):
         self.truth: list[tuple[float, ...]] = []
         self.latency: list[float] = []
         self.phase, self.reason = "", ""
+        #: every phase message heard (``phase: reason``), in order
+        self.phases: list[str] = []
         sub = self.create_subscription
         truth = self.truth.append
         def keep_truth(data: bytes) -> None:  # raw: the CDR bytes
@@ -62,6 +64,7 @@ class Observer(Node):
         return count
 
     def on_phase(self, msg: String) -> None:
+        self.phases.append(msg.data)
         self.phase, _, self.reason = (part.strip() for part in msg.data.partition(":"))
 
     def on_tcp_command(self, data: bytes) -> None:

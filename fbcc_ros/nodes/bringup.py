@@ -27,10 +27,12 @@ from typing import Any
 import numpy as np
 
 from fbcc_ros.bag.writer import check_new_folder
+from fbcc_ros.core.compensation.wrench_guard import GuardLimits
 from fbcc_ros.core.errors import FbccError, InputError, command
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import score
 from fbcc_ros.harness.cell_run import CellRun, NodeSpec
+from fbcc_ros.harness.fault_drill import DRILLS, StepMeter, describe, run_drill
 from fbcc_ros.nodes.fbcc_record import CELL_TOPICS, default_folder
 from fbcc_ros.pipeline.mock_cell import FIXTURE_COM, FIXTURE_MASS
 from fbcc_ros.ros import topics
@@ -64,6 +66,13 @@ def _parser() -> argparse.ArgumentParser:
                         help="bag folder to record into (new or empty; default "
                         "DIR/bags/fbcc_<date>_<time>)")  # fmt: skip
     record.add_argument("--no-record", action="store_true", help="do not record a bag")
+    parser.add_argument(
+        "--fault",
+        metavar="NAME",
+        default=None,
+        help="a fault drill: inject the fault NAME into the running cell and say whether it "
+        "ended safe (exit 0) or not (1); 'list' lists them",
+    )
     parser.add_argument(
         "--wait-for-recorder",
         action="store_true",
@@ -171,7 +180,20 @@ def bag_contents(bag: Path) -> dict[str, Any]:
 
     recorded = read_bag(bag)
     messages = {topic: recorded.counts[topic] for topic in recorded.topics}
-    return {"path": str(bag), "messages": messages, "truncated": recorded.truncated}
+    return {"path": str(bag), "messages": messages, "truncated": recorded.truncated,
+            "metadata_counts": metadata_counts(bag)}  # fmt: skip
+
+
+def metadata_counts(bag: Path) -> dict[str, int]:
+    """Messages per topic as the bag's ``metadata.yaml`` counts them (none without one)."""
+    import yaml
+
+    path = bag / "metadata.yaml"
+    if not path.exists():
+        return {}
+    info = yaml.safe_load(path.read_text())["rosbag2_bagfile_information"]
+    return {t["topic_metadata"]["name"]: t["message_count"]
+            for t in info["topics_with_message_count"]}  # fmt: skip
 
 
 def start_insertion(run: CellRun, timeout: float) -> None:
@@ -210,10 +232,12 @@ def run_cell(
     log_dir: Path | None = None,
     bag: Path | None = None,
     wait_for_recorder: bool = False,
+    fault: str | None = None,
 ) -> dict[str, Any]:
     """One assembly through the ROS graph, recorded into ``bag`` if given (or, with
-    ``wait_for_recorder``, by an fbcc_record started on its own, waited for); returns the
-    summary (with CPU per node, and what the bag holds)."""
+    ``wait_for_recorder``, by an fbcc_record started on its own, waited for), with the fault
+    drill ``fault`` if given (:mod:`fbcc_ros.harness.fault_drill`); returns the summary (with
+    CPU per node, what the bag holds, and the drill's result)."""
     path = str(scenario_io.find(scenario_path))
     sc = scenario_io.load(path)
     specs = cell_nodes(path, sc, law, draw_geometry, seed, processes)
@@ -222,19 +246,26 @@ def run_cell(
     with CellRun(specs, processes=processes, log_dir=log_dir) as run:
         if bag is not None or wait_for_recorder:
             wait_recording(run, timeout=30.0)
+        if fault:
+            kinematics = run.nodes["kinematics"].stage
+            meter = StepMeter(run.observer, kinematics.cell.robot.velocity_limit, kinematics.dt)
         start_insertion(run, timeout=30.0 if processes else 10.0)
         obs = run.observer
         first = len(obs.truth)
         obs.reset_counts()
-        cpu0 = run.cpu()
+        cpu0, t0 = run.cpu(), time.monotonic()
 
         def progress(elapsed: float) -> None:
             depth = obs.truth[-1][3] * 1e3 if obs.truth else float("nan")
             print(f"  t = {elapsed:4.1f} s  phase {obs.phase:10s} depth {depth:.3f} mm",
                   flush=True)  # fmt: skip
 
-        run.spin_for(sc.duration, progress)
-        cpu = {k: (v - cpu0[k]) / sc.duration for k, v in run.cpu().items()}
+        if fault:
+            watch = run_drill(run, fault, sc.duration, bag, progress)
+        else:
+            run.spin_for(sc.duration, progress)
+        elapsed = time.monotonic() - t0
+        cpu = {k: (v - cpu0[k]) / elapsed for k, v in run.cpu().items()}
         truth = obs.truth_since(first)
         phase, reason, counts = obs.phase, obs.reason, dict(obs.counts)
     if len(truth) < 2:
@@ -248,19 +279,41 @@ def run_cell(
         mode="processes" if processes else "one process",
         phase=phase,
         reason=reason,
-        cycles={"samples": len(truth), "expected": round(sc.duration * sc.rate_hz), **counts},
+        cycles={"samples": len(truth), "expected": round(elapsed * sc.rate_hz), **counts},
         cpu_per_node={k: round(v, 4) for k, v in cpu.items()},
     )
     summary["success"] = bool(summary["success"]) and phase not in ("fault", "aborted")
     if bag is not None:
         write_parameters(bag, specs)
         summary["bag"] = bag_contents(bag)
+    if fault:
+        summary["fault_drill"] = watch.result(phase, truth, meter.worst, GuardLimits(),
+                                              summary.get("bag"))  # fmt: skip
     return summary
+
+
+def _bag_said(drill: dict[str, Any]) -> str:
+    bag = drill["bag"]
+    if bag is None:
+        return "no bag"
+    held = "as its metadata counts" if bag["consistent"] else "NOT as its metadata counts"
+    return f"bag {'complete' if bag['complete'] else 'cut short'}, holding {held}"
 
 
 @command("fbcc_bringup")
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    if args.fault == "list":
+        print(describe())
+        return 0
+    if args.fault is not None:
+        if args.fault not in DRILLS:
+            raise InputError("--fault", args.fault, f"one of {list(DRILLS)} or list")
+        if args.processes:
+            raise InputError("--fault", args.fault, "without --processes (a drill restarts "
+                             "nodes of the bringup's own process)")  # fmt: skip
+        if args.fault == "disk-full" and args.no_record:
+            raise InputError("--fault", args.fault, "a recorded run (without --no-record)")
     if args.wait_for_recorder and not args.no_record:
         raise InputError("--wait-for-recorder", True, "with --no-record (a recorder of "
                          "your own; the bringup's own is always waited for)")  # fmt: skip
@@ -278,7 +331,7 @@ def main(argv: list[str] | None = None) -> int:
         check_new_folder(bag)
         print(f"recording into {bag}", flush=True)
     summary = run_cell(args.scenario, law, args.draw_geometry, args.seed, args.processes,
-                       logs, bag, args.wait_for_recorder)  # fmt: skip
+                       logs, bag, args.wait_for_recorder, args.fault)  # fmt: skip
     final = summary["final_features"]
     print(
         f"{'assembled' if summary['success'] else 'NOT assembled'}: phase {summary['phase']}"
@@ -294,10 +347,19 @@ def main(argv: list[str] | None = None) -> int:
         cut = f" (TRUNCATED: {recorded['truncated']})" if recorded["truncated"] else ""
         print(f"recorded {sum(recorded['messages'].values())} messages on "
               f"{len(recorded['messages'])} topics into {recorded['path']}{cut}")  # fmt: skip
+    drill = summary.get("fault_drill")
+    if drill:
+        print(f"fault drill {drill['name']}: {drill['outcome']} ({drill['reason']}); true |f| "
+              f"≤ {drill['peak_force']:.1f} N (limit {drill['force_limit']:g}), |m| ≤ "
+              f"{drill['peak_moment']:.2f} N·m (limit {drill['moment_limit']:g}); largest "
+              f"joint step {drill['joint_step']:.2f} of the velocity limit's; {_bag_said(drill)}"
+              f" — {'SAFE' if drill['safe'] else 'UNSAFE: ' + '; '.join(drill['unsafe'])}")
     if args.out:
         args.out.mkdir(parents=True, exist_ok=True)
         (args.out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         print(f"wrote {args.out / 'summary.json'}")
+    if drill:
+        return 0 if drill["safe"] else 1
     return 0 if summary["success"] else 1
 
 

@@ -40,7 +40,7 @@ class DynamicCompensationNode(Node):
         self.out_compensated = Outlet(
             self.create_publisher(WrenchStamped, topics.COMPENSATED_WRENCH, 10))
         self.pub_bias = self.create_publisher(WrenchStamped, topics.BIAS, topics.PHASE_QOS)
-        self.pub_guard = self.create_publisher(String, topics.GUARD, topics.PHASE_QOS)
+        self.out_guard = Outlet(self.create_publisher(String, topics.GUARD, topics.PHASE_QOS))
         self.create_subscription(String, topics.REARM, self.on_rearm, 10)
         self._publish_bias(self.get_clock().now().nanoseconds * 1e-9)
         sub = self.create_subscription  # raw: CDR bytes, decoded by fbcc_ros.ros.convert
@@ -91,7 +91,7 @@ class DynamicCompensationNode(Node):
         cleared = self.stage.rearm()
         if cleared is not None:
             self.get_logger().info(f"wrench guard re-armed ({msg.data})")
-            self.pub_guard.publish(String(data=""))  # the latched trip is over
+            self.out_guard.publish(String(data=""))  # the latched trip is over
 
     def _publish_bias(self, stamp: float) -> None:
         """The bias in use, latched: the configured one at start-up, the measured one with the
@@ -103,7 +103,7 @@ class DynamicCompensationNode(Node):
         if self.stage.just_tripped:
             reason = f"wrench guard: {self.stage.comp.guard.reason}"
             self.get_logger().error(reason)
-            self.pub_guard.publish(String(data=reason))
+            self.out_guard.publish(String(data=reason))
         if out is None:
             counts = self.stage.comp.counts
             rejected = {k: v for k, v in counts.items() if k not in ("accepted", "taring") and v}

@@ -24,7 +24,7 @@ from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import Trigger
 
 from fbcc_ros.core.control.identification import ESTIMATE_FIELDS
-from fbcc_ros.core.control.phase import Phase
+from fbcc_ros.core.control.phase import NEEDS_RESET, Phase
 from fbcc_ros.core.errors import FbccError
 from fbcc_ros.pipeline.controller import TABLE, ControllerStage
 from fbcc_ros.ros import topics
@@ -75,7 +75,9 @@ class FbccControllerNode(Node):
         levels = {Phase.FAULT: ERROR, Phase.FORCE_LIMIT: WARN, Phase.ABORTED: WARN}
         level = levels.get(self.sup.phase, OK)
         rate = self.stage.input_rate
+        not_armed = self.sup.not_armed(self.now())
         values = {"phase": self.sup.phase, "reason": self.sup.reason,
+                  "armed": not not_armed, "not_armed": not_armed,
                   "contact_state": self._state_said, "input_rate_hz": rate.measured_hz,
                   "late_samples": self.sup.late}  # fmt: skip
         said, mismatch = self.stage.said, rate.mismatch()
@@ -93,10 +95,13 @@ class FbccControllerNode(Node):
     def on_features(self, data: bytes) -> None:
         now = self.now()
         try:
-            self.stage.features(now, pose_from_cdr(data)[1])
+            command = self.stage.features(now, pose_from_cdr(data)[1])
         except FbccError as exc:
-            self.stage.features(now, None)
+            command = self.stage.features(now, None)
             self.get_logger().error(f"features rejected: {exc}", throttle_duration_sec=1.0)
+        if command is not None:  # retracting after a fault
+            self.out_command.publish(pose_to_cdr(command, topics.HOLE_FRAME, now))
+        self._publish_phase(hold=True)
 
     def on_wrench(self, data: bytes) -> None:
         now = self.now()
@@ -127,11 +132,11 @@ class FbccControllerNode(Node):
         empty report is a guard re-armed)."""
         if msg.data:
             self.sup.fault(msg.data, self.now())
-        self._publish_phase()
+        self._publish_phase(hold=True)
 
     def on_watchdog(self) -> None:
         self.sup.watchdog(self.now())
-        self._publish_phase()
+        self._publish_phase(hold=True)
 
     def start_insertion(self, now: float) -> tuple[bool, str]:
         ok, message = self.sup.start(now)
@@ -156,10 +161,16 @@ class FbccControllerNode(Node):
         self._publish_phase()
         return response
 
-    def _publish_phase(self) -> None:
+    def _publish_phase(self, hold: bool = False) -> None:
+        """The phase, on change; with ``hold``, a fault's hold command too (off the wrench's
+        path a fault comes with no wrench to answer, and the arm would go on to the last
+        command, a step and its lag beyond where it was measured)."""
         said = self.stage.said
         if said != self._phase_said:
             self._phase_said = said
+            if hold and self.sup.phase in NEEDS_RESET and self.sup.command is not None:
+                pose = self.stage.pose(self.sup.command)
+                self.out_command.publish(pose_to_cdr(pose, topics.HOLE_FRAME, self.now()))
             self.pub_phase.publish(String(data=said))
             # one call site per severity: rclpy refuses a site that changes severity
             if self.sup.phase == Phase.FAULT:

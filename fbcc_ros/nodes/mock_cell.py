@@ -5,10 +5,12 @@ scenario's lag, within its limits, and publishes ``joint_states`` at ``rate_hz``
 under the true hole publishes ``ft_sensor/raw`` (WrenchStamped) for the same instant: the
 contact of the true geometry (optionally drawn from Table II's tolerances, unknown to the
 controller) at the scenario's unknown hole deviation, plus the fixture's weight, the bias and
-the noise. For scoring, it also publishes the true features and response of each tick on
-``mock_cell/truth`` (Float64MultiArray, fields in ``topics.TRUTH_FIELDS``) while anyone
-listens. The plant is :class:`fbcc_ros.core.sim.mock_cell.MockCell`. One node holds both roles
-because the sensor reads the arm's state of the same step.
+the noise; the ``sensor_fault`` parameter, set while it runs, passes the readings through a
+sensor fault to rehearse (``core.sim.sensor_faults``). For scoring, it also publishes the true
+features and response of each tick on ``mock_cell/truth`` (Float64MultiArray, fields in
+``topics.TRUTH_FIELDS``) while anyone listens. The plant is
+:class:`fbcc_ros.core.sim.mock_cell.MockCell`. One node holds both roles because the sensor
+reads the arm's state of the same step.
 """
 
 from __future__ import annotations
@@ -33,8 +35,8 @@ from fbcc_ros.ros.params import declare, run
 class MockCellNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("mock_cell", **kwargs)
-        stage = MockStage(declare(self, TABLE))
-        self.cell, self.dt, self.frame = stage.cell, stage.dt, stage.frame
+        self.stage = MockStage(declare(self, TABLE, lambda v: self.stage.apply(v)))
+        self.cell, self.dt, self.frame = self.stage.cell, self.stage.dt, self.stage.frame
         self.names = self.cell.robot.joint_names
         self.counts = {"ticks": 0, "ticks_caught_up": 0, "ticks_skipped": 0,
                        "commands_refused": 0}  # fmt: skip
@@ -82,7 +84,8 @@ class MockCellNode(Node):
     def _tick(self, now: float) -> None:
         sample = self.cell.step(self.dt)
         self.pub_joints.publish(joints_to_cdr(self.names, sample.q, sample.dq, now))
-        self.pub_raw.publish(wrench_to_cdr(sample.raw, self.frame, now))
+        for stamp, raw in self.stage.readings(now, sample.raw):
+            self.pub_raw.publish(wrench_to_cdr(raw, self.frame, stamp))
         if self.pub_truth.get_subscription_count():
             row = [now, *sample.features.tolist(), *sample.response.tolist()]
             self.pub_truth.publish(encode_array(row, TRUTH_LAYOUT))

@@ -60,6 +60,8 @@ TABLE = (
     Param("guard.max_tare", [20.0, 2.0], "largest |difference| between a tare's bias and the "
           "configured one [force, moment]; more trips the guard (a load while taring)",
           "N, N m"),
+    Param("guard.stop_margin", 0.1, "the guard trips this fraction below each limit, for the "
+          "arm to stop in before the contact reaches it", "", 0.0, 0.9),
     *CELL,
 )  # fmt: skip
 
@@ -86,7 +88,7 @@ def setup_from(values: dict[str, Any], hole: pin.SE3) -> SensorSetup:
         tare_samples=values["tare_samples"],
         guard=GuardLimits(values["guard.force_limit"], values["guard.moment_limit"],
                           _pair(values["guard.sensor_range"]), _pair(values["guard.max_rate"]),
-                          _pair(values["guard.max_tare"])),
+                          _pair(values["guard.max_tare"]), values["guard.stop_margin"]),
     )
 
 
@@ -138,9 +140,13 @@ class CompensationStage:
 
     def rearm(self) -> str | None:
         """A fresh wrench guard (the controller's reset acknowledged the trip); returns the
-        reason of the trip it clears, None if it had not tripped."""
+        reason of the trip it clears, None if it had not tripped. A tare it refused is taken
+        again from the next readings (the load may be gone; if not, it is refused again)."""
         cleared = self.comp.guard.reason
-        self.comp.guard = WrenchGuard(self.setup.guard)
+        if self.comp.tare_refused:
+            self.retare(self.setup.tare_samples)
+        else:
+            self.comp.guard = WrenchGuard(self.setup.guard)
         self._tripped_said = False
         return cleared
 

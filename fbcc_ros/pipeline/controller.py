@@ -44,6 +44,8 @@ TABLE = (
           0.01, read_only=False),
     Param("max_step_angle", _LIMITS.max_step_angle, "largest change of a tilt per command",
           "rad", 1e-9, 0.1, read_only=False),
+    Param("fault_retract", 0.0, "after a fault or a force limit, withdraw this far along the "
+          "hole axis from where the arm is (0: hold there)", "m", 0.0, 0.05),
     Param("auto_start", False, "start the first insertion once features and wrenches arrive"),
     Param("estimate_rate_hz", 100.0, "rate of fbcc/contact_estimate (robust law; at most the "
           "control rate)", "Hz", 1.0, 10000.0),
@@ -73,8 +75,10 @@ class ControllerStage:
         name = sc.laws[0] if values["law"] == "scenario" else values["law"]
         law = make_law(name, sc.geometry, sc.params, sc.insertion)
         rate = values["rate_hz"] or sc.rate_hz
+        #: the safety limits at start-up: the runtime ones are at most these
+        self.configured = safety_limits(values)
         try:
-            self.sup = Supervisor(law, 1.0 / rate, safety_limits(values))
+            self.sup = Supervisor(law, 1.0 / rate, self.configured, values["fault_retract"])
         except ConfigError as exc:  # a period too long for the gains: say it as the rate
             if exc.field != "dt":
                 raise
@@ -93,8 +97,15 @@ class ControllerStage:
         self.sup.law.preload()
 
     def apply(self, values: dict[str, Any]) -> None:
-        """The runtime parameters (the safety limits); raises ConfigError for bad ones."""
-        self.sup.limits = safety_limits(values)
+        """The runtime parameters (the safety limits), only ever tighter than at start-up: a
+        limit loosened while the cell runs raises ConfigError, and the change is refused."""
+        limits = safety_limits(values)
+        for name in ("timeout", "max_step", "max_step_angle"):
+            value, configured = getattr(limits, name), getattr(self.configured, name)
+            if value > configured:
+                raise ConfigError(name, value, f"at most its start-up value {configured:g} "
+                                  "while running (a limit is only tightened at runtime)")
+        self.sup.limits = limits
 
     @property
     def said(self) -> str:
@@ -107,13 +118,20 @@ class ControllerStage:
         return (self.auto_start and self.sup.phase == Phase.IDLE and self.sup.command is None
                 and self.sup.features is not None)  # fmt: skip
 
-    def features(self, now: float, peg_in_hole: pin.SE3 | None) -> None:
-        """The peg's measured pose in {H} (None: unreadable, a fault while inserting).
+    def features(self, now: float, peg_in_hole: pin.SE3 | None) -> pin.SE3 | None:
+        """The peg's measured pose in {H} (None: unreadable, a fault while inserting); returns
+        a new command pose if they move one (the retract after a fault), else None.
         Raises :class:`~fbcc_ros.core.errors.InputError` for a peg tilted 90° or more."""
         if peg_in_hole is None:
             self.sup.on_features(now, [float("nan")] * 5)
-            return
-        self.sup.on_features(now, self.features_of(peg_in_hole))
+            return None
+        return self.pose(self.sup.on_features(now, self.features_of(peg_in_hole)))
+
+    def pose(self, command: FloatArray | None) -> pin.SE3 | None:
+        """The peg's pose in {H} for command features (None for None)."""
+        if command is None:
+            return None
+        return pin.SE3(*pose_from_features(command, self.nominal.peg_radius))
 
     def features_of(self, peg_in_hole: pin.SE3) -> FloatArray:
         """The features of a peg pose in {H}, read with the nominal radius (the measured pose,
@@ -128,9 +146,7 @@ class ControllerStage:
         self.response = response_from_wrench(wrench, self.acting_point)
         command = self.sup.on_response(now, self.response, stamp)
         self._periods += 1
-        if command is None:
-            return None
-        return pin.SE3(*pose_from_features(command, self.nominal.peg_radius))
+        return self.pose(command)
 
     def estimate(self, stamp: float) -> list[float] | None:
         """The robust law's contact estimate (``identification.ESTIMATE_FIELDS``, the stamp

@@ -3,7 +3,8 @@
 :class:`fbcc_ros.core.sim.mock_cell.MockCell` is the plant; this stage builds it from the
 mock_cell node's parameters (the scenario, the rate, a drawn geometry, the seed, the fixture,
 the cell's robot and hole) so that the node stays an adapter and a test can drive the same
-configuration without ROS.
+configuration without ROS. Its one runtime parameter injects a sensor fault
+(:mod:`fbcc_ros.core.sim.sensor_faults`).
 """
 
 from __future__ import annotations
@@ -12,10 +13,12 @@ from typing import Any
 
 import numpy as np
 
+from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.compensation.payload import Payload
 from fbcc_ros.core.contact.mapping_study import perturbed
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.mock_cell import MockCell
+from fbcc_ros.core.sim.sensor_faults import SENSOR_FAULTS, Reading, SensorFault
 from fbcc_ros.pipeline.kinematics import CELL, cell_from
 from fbcc_ros.pipeline.parameters import Param
 
@@ -35,6 +38,8 @@ TABLE = (
     Param("sensor_frame", "ft_sensor", "frame_id of the raw readings"),
     Param("fixture_mass", FIXTURE_MASS, "mass of the hole fixture on the sensor", "kg", 0.0,
           100.0),
+    Param("sensor_fault", "", "a sensor fault to rehearse, from the next reading on (empty: "
+          "none; set it again to repeat it)", choices=("", *SENSOR_FAULTS), read_only=False),
     *CELL,
 )  # fmt: skip
 
@@ -61,3 +66,15 @@ class MockStage:
         self.cell = MockCell(sc, robot, hole, geometry, fixture, seed)
         self.dt = 1.0 / (values["rate_hz"] or sc.rate_hz)
         self.frame: str = values["sensor_frame"]
+        self.fault: SensorFault | None = None
+        self.apply(values)
+
+    def apply(self, values: dict[str, Any]) -> None:
+        """The runtime parameter: ``sensor_fault`` (``core.sim.sensor_faults``)."""
+        name = values["sensor_fault"]
+        self.fault = SensorFault(name, self.dt) if name else None
+
+    def readings(self, stamp: float, raw: FloatArray) -> list[Reading]:
+        """What the sensor delivers for the reading ``raw`` taken at ``stamp`` [s]: itself, or
+        what the fault makes of it."""
+        return self.fault.apply(stamp, raw) if self.fault else [(stamp, raw)]

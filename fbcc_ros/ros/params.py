@@ -5,6 +5,7 @@ one in its YAML) is refused at start-up, with the closest declared name."""
 
 from __future__ import annotations
 
+import array
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
@@ -59,7 +60,7 @@ def declare(
     unknown_names(node.get_name(), table, given)
     values: dict[str, Any] = {}
     for p in table:
-        values[p.name] = node.declare_parameter(p.name, p.default, descriptor(p)).value
+        values[p.name] = plain(node.declare_parameter(p.name, p.default, descriptor(p)).value)
         p.check(values[p.name])
     by_name = {p.name: p for p in table}
 
@@ -67,11 +68,12 @@ def declare(
         merged = dict(values)
         for change in changes:
             if change.name in by_name:
+                value = plain(change.value)
                 try:
-                    by_name[change.name].check(change.value)
+                    by_name[change.name].check(value)
                 except FbccError as exc:
                     return SetParametersResult(successful=False, reason=str(exc))
-                merged[change.name] = change.value
+                merged[change.name] = value
         if apply is not None:
             try:
                 apply(merged)
@@ -82,6 +84,12 @@ def declare(
 
     node.add_on_set_parameters_callback(on_set)
     return values
+
+
+def plain(value: Any) -> Any:
+    """A parameter's value as the tables hold it: rclpy gives a number array set at runtime
+    as ``array.array`` (a list when declared from YAML)."""
+    return list(value) if isinstance(value, array.array) else value
 
 
 def run(node_factory: Callable[[], Node]) -> None:

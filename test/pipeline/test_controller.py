@@ -1,12 +1,15 @@
-"""The controller stage takes its law and rate from its scenario unless told otherwise."""
+"""The controller stage takes its law and rate from its scenario unless told otherwise, and its
+safety limits are only tightened at runtime."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 import yaml
 
 from fbcc_ros.core.control.laws import AdmittanceController, FbccController
+from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.pipeline import controller
 from fbcc_ros.pipeline.parameters import resolve
 
@@ -28,3 +31,18 @@ def test_law_and_rate_default_to_the_scenarios(tmp_path: Path) -> None:
     assert isinstance(default.sup.law, AdmittanceController) and default.sup.dt == 1 / 500
     chosen = stage(law="fbcc", rate_hz=1000.0)
     assert isinstance(chosen.sup.law, FbccController) and chosen.sup.dt == 1 / 1000
+
+
+def test_runtime_limits_are_only_tightened() -> None:
+    """A step limit or timeout loosened while the controller runs is refused with its
+    start-up value; tightened, or back to it, it is applied."""
+    values = resolve("fbcc_controller", controller.TABLE, {"max_step": 1e-4})
+    stage = controller.ControllerStage(values)
+    for name, looser in (("max_step", 2e-4), ("max_step_angle", 0.05), ("timeout", 0.5)):
+        with pytest.raises(ConfigError, match=f"{name}.*at most its start-up value"):
+            stage.apply({**values, name: looser})
+    assert stage.sup.limits.max_step == 1e-4
+    stage.apply({**values, "max_step": 1e-6, "timeout": 0.01})
+    assert (stage.sup.limits.max_step, stage.sup.limits.timeout) == (1e-6, 0.01)
+    stage.apply(values)
+    assert stage.sup.limits == stage.configured

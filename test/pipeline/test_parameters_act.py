@@ -52,6 +52,8 @@ CONTEXT: dict[str, dict[str, Any]] = {
     "hole_rpy": {"hole_from_home": False, "hole_xyz": HOLE["hole_xyz"]},
     "estimate_rate_hz": {"scenario": ROBUST},
     "guard.max_tare": {"tare_samples": 50},
+    "guard.stop_margin": {"guard.force_limit": 20.0},
+    "fault_retract": {"timeout": 0.01},  # the features' 30 ms gap faults
 }
 for _name in ("hole_from_home", "hole_xyz", "hole_rpy"):  # the compensation: a wrist sensor's
     CONTEXT[f"dynamic_compensation.{_name}"] = {**WRIST, **CONTEXT[_name]}
@@ -81,6 +83,8 @@ CHANGED: dict[str, Any] = {
     "guard.sensor_range": [10.0, 60.0],  # the fixture's weight alone reads 14.7 N
     "guard.max_rate": [1.0, 1.0e5],
     "guard.max_tare": [1.0, 2.0],  # the tare measures the fixture's 14.7 N (no payload given)
+    "guard.stop_margin": 0.9,  # of 20 N (CONTEXT): trips at 2 N, under the fixture's weight
+    "fault_retract": 1e-3,
 }
 
 
@@ -160,7 +164,8 @@ def _controller(values: dict[str, Any]) -> list[Any]:
         if m.topic == "/fbcc/features":
             stamp, peg = pose_from_cdr(m.data)
             if not silent[0] <= stamp < silent[1]:
-                stage.features(stamp, peg)
+                retract = stage.features(stamp, peg)
+                out.append(None if retract is None else retract.homogeneous)
         elif m.topic == "/ft_sensor/compensated":
             stamp, _, wrench = wrench_from_cdr(m.data)
             if stage.ready_to_start or (stage.sup.phase == "idle" and stamp >= start):
@@ -176,10 +181,12 @@ def _mock(values: dict[str, Any]) -> list[Any]:
     """The mock's plant following the recorded joint commands, one period each."""
     stage = mock_cell.MockStage(values)
     out: list[Any] = [stage.dt, stage.frame]
-    for m in BAG.of("/joint_command"):
+    for i, m in enumerate(BAG.of("/joint_command")):
         _attempt(out, stage.cell.command, positions_from_cdr(m.data))
         sample = stage.cell.step(stage.dt)
-        out += [sample.q, sample.raw, sample.response]
+        out += [sample.q, sample.response]
+        for stamp, raw in stage.readings(i * stage.dt, sample.raw):
+            out += [stamp, raw]
     return out
 
 

@@ -177,6 +177,8 @@ class Compensator:
         self._last_stamp = -math.inf
         #: limits below the filters (module doc of wrench_guard); tripped, it passes nothing
         self.guard = WrenchGuard(setup.guard)
+        #: the guard refused the tare (the configured bias stays)
+        self.tare_refused = False
         self._joints: tuple[float, FloatArray, FloatArray, FloatArray] | None = None
         if setup.placement == "wrist":
             if robot is None:
@@ -322,6 +324,8 @@ class Compensator:
             measured = np.mean(self._tare, axis=0)  # b = mean(reading - payload wrench)
             if self.guard.tare(measured, self._bias):  # else tripped: the bias stays
                 self._bias = measured
+            else:
+                self.tare_refused = True
 
     @property
     def bias(self) -> FloatArray:

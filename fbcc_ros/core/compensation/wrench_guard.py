@@ -8,7 +8,11 @@ far past it, and it has no moment limit. The guard acts in the compensation, on 
   faster change between two samples than ``max_rate`` (a single corrupt sample, My = 1e6 N·m,
   is no contact);
 * **limits on the contact**: the compensated wrench in {H}, before any filter, within
-  ``force_limit`` (|f|) and ``moment_limit`` (|m| about the {H} origin);
+  ``force_limit`` (|f|) and ``moment_limit`` (|m| about the {H} origin) less ``stop_margin`` of
+  them: the guard trips that far below a limit because the arm goes on pressing until the hold
+  reaches it (the loop's latency times the approach; 7 N past the trip point in the dead-band
+  drill on a loaded two-core machine, docs/safety.md), and the limit is what the contact must
+  never see;
 * **a tare only when it is safe**: the bias a tare measures within ``max_tare`` of the
   configured one (a tare under load, the peg in the hole, would take the contact for a bias).
 
@@ -40,6 +44,7 @@ class GuardLimits:
         max_tare: Largest difference between the bias a tare measures and the configured one,
             (|force| [N], |moment| [N·m]): more is a load on the sensor while taring (the peg in
             contact) or a payload that is not configured.
+        stop_margin: The fraction of each limit the guard trips below it, for the arm to stop in.
     """
 
     force_limit: float = 300.0
@@ -47,12 +52,15 @@ class GuardLimits:
     sensor_range: tuple[float, float] = (660.0, 60.0)
     max_rate: tuple[float, float] = (1e6, 1e5)
     max_tare: tuple[float, float] = (20.0, 2.0)
+    stop_margin: float = 0.1
 
     def __post_init__(self) -> None:
         for name in ("force_limit", "moment_limit"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
                 raise ConfigError(f"guard.{name}", value, "a finite limit > 0")
+        if not 0.0 <= self.stop_margin <= 0.9:
+            raise ConfigError("guard.stop_margin", self.stop_margin, "a fraction in [0, 0.9]")
         for name in ("sensor_range", "max_rate", "max_tare"):
             pair = np.asarray(getattr(self, name), dtype=float)
             if pair.shape != (2,) or not (np.isfinite(pair).all() and (pair > 0).all()):
@@ -96,10 +104,12 @@ class WrenchGuard:
         over a limit."""
         f = math.sqrt(float(wrench[0] ** 2 + wrench[1] ** 2 + wrench[2] ** 2))
         m = math.sqrt(float(wrench[3] ** 2 + wrench[4] ** 2 + wrench[5] ** 2))
-        if f > self.limits.force_limit:
-            return self._trip(f"|f| {f:.4g} N over the limit {self.limits.force_limit:g} N")
-        if m > self.limits.moment_limit:
-            return self._trip(f"|m| {m:.4g} N·m over the limit {self.limits.moment_limit:g} N·m")
+        keep = 1.0 - self.limits.stop_margin
+        for size, limit, what, unit in ((f, self.limits.force_limit, "|f|", "N"),
+                                        (m, self.limits.moment_limit, "|m|", "N·m")):
+            if size > keep * limit:
+                return self._trip(f"{what} {size:.4g} {unit} over {keep * limit:.4g} {unit}, "
+                                  f"the limit {limit:g} {unit} less its stop margin")
         return True
 
     def tare(self, measured: FloatArray, configured: FloatArray) -> bool:

@@ -4,10 +4,14 @@ Phases (:class:`~fbcc_ros.core.control.phase.Phase`): ``idle`` (nothing commande
 ``start()`` → ``inserting`` → ``inserted`` (the depth ramp reached L; the law keeps adjusting);
 ``force_limit`` (Algorithm 1's stop), ``aborted`` (``abort()``) and ``fault`` end an insertion
 and hold; ``reset()`` acknowledges the end (``idle``), and a ``start()`` after a
-fault or a force limit is refused until it has.
+fault or a force limit is refused until it has. A ``start()`` also needs recent features and a
+recent compensated wrench (a compensation still taring, or whose wrench guard has tripped,
+publishes none).
 
 A fault or a force limit holds where the arm is (the measured features while they are fresh,
-else the last command; an abort holds the last command) and records why:
+else the last command; an abort holds the last command) and records why; with ``retract`` > 0
+it then withdraws that far along the hole axis (the depth l), one ``max_step`` per measured
+features, while they keep coming (the wrench may not: a tripped guard withholds it):
 
 * non-finite features or response;
 * stale input: no features or no compensated wrench for longer than ``timeout`` (checked on
@@ -74,7 +78,7 @@ class Supervisor:
         limits: Timeouts and step limits.
     """
 
-    def __init__(self, law: Law, dt: float, limits: SafetyLimits) -> None:
+    def __init__(self, law: Law, dt: float, limits: SafetyLimits, retract: float = 0.0) -> None:
         # a rate too low for the gains is refused here, at start-up, not at the first command;
         # and the coefficients (matrix exponentials, ~1.5 ms) are not computed in the loop
         law.prepare(dt)
@@ -83,6 +87,10 @@ class Supervisor:
         for k in range(2, self.max_periods + 1):
             law.prepare(k * dt)
         self.late = 0
+        if not (math.isfinite(retract) and retract >= 0.0):
+            raise ConfigError("fault_retract", retract, "a finite distance >= 0 (m)")
+        self.retract = retract
+        self._retract_to: FloatArray | None = None
         self._t_sample: float | None = None
         self.law = law
         self.dt = dt
@@ -113,27 +121,49 @@ class Supervisor:
         if (self.command is not None and self.features is not None
                 and now - self._t_features <= self.limits.timeout):  # fmt: skip
             self.command = self.features.copy()
+        if self.retract > 0.0 and self.command is not None:
+            self._retract_to = self.command - np.array([0.0, 0.0, self.retract, 0.0, 0.0])
 
-    def on_features(self, now: float, features: ArrayLike) -> None:
+    def on_features(self, now: float, features: ArrayLike) -> FloatArray | None:
+        """The measured features; returns a new command if they move one (the retract after
+        a fault, a step each), else None."""
         x = np.asarray(features, dtype=float)
         if x.shape != (5,) or not np.isfinite(x).all():
             self.fault(f"non-finite or malformed features {x.tolist()}", now)
-            return
+            return None
         self.features, self._t_features = x, now
+        if self._retract_to is None or self.phase not in NEEDS_RESET or self.command is None:
+            return None
+        if np.array_equal(self.command, self._retract_to):
+            return None
+        self.command = self.limits.clip(self.command, self._retract_to)
+        return self.command
+
+    def not_armed(self, now: float) -> str:
+        """Why a ``start`` at ``now`` would be refused; ``""`` when it would be accepted (the
+        controller is *armed*: idle or ended without a fault, with recent inputs)."""
+        if self.active:
+            return f"already {self.phase}"
+        if self.phase in NEEDS_RESET:
+            return f"{self.phase} ({self.reason}): acknowledge it with reset first"
+        if self.features is None or now - self._t_features > self.limits.timeout:
+            return "no recent features: is the kinematics node running?"
+        if now - self._t_wrench > self.limits.timeout:
+            return ("no recent compensated wrench: is the compensation running, tared and its "
+                    "wrench guard armed?")
+        return ""
 
     def start(self, now: float) -> tuple[bool, str]:
-        """Begin an insertion from the current features."""
-        if self.active:
-            return False, f"already {self.phase}"
-        if self.phase in NEEDS_RESET:
-            return False, f"{self.phase} ({self.reason}): acknowledge it with reset first"
-        if self.features is None or now - self._t_features > self.limits.timeout:
-            return False, "no recent features: is the kinematics node running?"
+        """Begin an insertion from the current features, if armed (:meth:`not_armed`)."""
+        why = self.not_armed(now)
+        if why:
+            return False, why
+        assert self.features is not None
         self.law.reset(self.features)
         self.command = self.features.copy()
         self._t_sample = None
         self.phase, self.reason = Phase.INSERTING, ""
-        self._t_wrench = self._t_ran = now
+        self._t_ran = now
         return True, "insertion started"
 
     def reset(self) -> tuple[bool, str]:
@@ -143,6 +173,7 @@ class Supervisor:
             return False, f"{self.phase}: abort it first"
         ended, why = self.phase, self.reason
         self.phase, self.reason = Phase.IDLE, ""
+        self._retract_to = None
         return True, f"{ended} acknowledged{f' ({why})' if why else ''}; idle"
 
     def abort(self, reason: str = "abort requested") -> tuple[bool, str]:
@@ -192,9 +223,12 @@ class Supervisor:
         returns the command to publish (the held one outside an insertion, None before the
         first)."""
         w = np.asarray(response, dtype=float)
+        valid = w.shape == (5,) and bool(np.isfinite(w).all())
         if not self.active:
+            if valid:  # a start needs a recent one
+                self._t_wrench = now
             return self.command
-        if w.shape != (5,) or not np.isfinite(w).all():
+        if not valid:
             self.fault(f"non-finite or malformed response {w.tolist()}", now)
             return self.command
         self._t_wrench = self._t_ran = now

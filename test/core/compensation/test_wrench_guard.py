@@ -33,21 +33,24 @@ def test_a_single_corrupt_moment_sample_trips_it_and_nothing_passes_after() -> N
 def test_the_force_limit_holds_whatever_the_filters(deadband, lowpass_hz) -> None:
     """A contact force ramping to 400 N over 0.4 s against a 300 N limit. Behind a 1000 N dead
     band the output stays 0; behind a 1 Hz low-pass it lags far below: the controller's own
-    limit on its input would never see 300 N. The guard trips at the first sample over it."""
+    limit on its input would never see 300 N. The guard trips at the first sample over its trip
+    point, the limit less its 10 % stop margin."""
     comp = Compensator(SensorSetup(deadband=deadband, lowpass_hz=lowpass_hz))
     ramp = [np.array([0.0, 0.0, -f, 0.0, 0.0, 0.0]) for f in np.linspace(0.0, 400.0, 401)]
     out = _feed(comp, ramp)
     first = next(k for k, o in enumerate(out) if o is None)
-    assert 300.0 < float(np.linalg.norm(ramp[first][:3])) <= 301.0
+    assert 270.0 < float(np.linalg.norm(ramp[first][:3])) <= 271.0
     passed = [o.wrench for o in out[:first]]  # type: ignore[attr-defined]
-    assert max(abs(w[2]) for w in passed) < 300.0  # what the controller got stayed under it
-    assert "over the limit 300 N" in str(comp.guard.reason)
+    assert max(abs(w[2]) for w in passed) < 270.0  # what the controller got stayed under it
+    assert "over 270 N, the limit 300 N less its stop margin" in str(comp.guard.reason)
 
 
 def test_a_moment_over_its_limit_trips_it() -> None:
-    comp = Compensator(SensorSetup(guard=GuardLimits(moment_limit=2.0)))
+    comp = Compensator(SensorSetup(guard=GuardLimits(moment_limit=2.0, stop_margin=0.0)))
     out = _feed(comp, [np.array([0, 0, 0, 1.5, 1.5, 0.0]), np.array([0, 0, 0, 0.5, 0.5, 0.0])])
-    assert out == [None, None] and "|m| 2.121 N·m over the limit 2 N·m" in str(comp.guard.reason)
+    assert out == [None, None] and "|m| 2.121 N·m over 2 N·m" in str(comp.guard.reason)
+    margin = Compensator(SensorSetup(guard=GuardLimits(moment_limit=2.0, stop_margin=0.5)))
+    assert _feed(margin, [np.array([0, 0, 0, 0.8, 0.8, 0.0])]) == [None]  # 1.13 > 1 N·m
 
 
 def test_a_reading_that_changes_faster_than_any_contact_trips_it() -> None:
@@ -60,7 +63,8 @@ def test_a_reading_that_changes_faster_than_any_contact_trips_it() -> None:
 
 @pytest.mark.parametrize(("field", "value"), [("force_limit", 0.0), ("moment_limit", float("nan")),
                                                ("sensor_range", (100.0, -1.0)),
-                                               ("max_rate", (1.0,))])  # fmt: skip
+                                               ("max_rate", (1.0,)),
+                                               ("stop_margin", 0.95)])  # fmt: skip
 def test_limits_are_checked(field, value) -> None:
     with pytest.raises(ConfigError, match=f"guard.{field}"):
         GuardLimits(**{field: value})

@@ -32,14 +32,27 @@ def _supervisor(law: str = "fbcc", **limits: float) -> Supervisor:
                       SafetyLimits(**limits))  # fmt: skip
 
 
+def _start(sup: Supervisor, now: float) -> tuple[bool, str]:
+    """``start`` at ``now``, after a compensated wrench (a start needs a recent one)."""
+    sup.on_response(now, np.zeros(5))
+    return sup.start(now)
+
+
 def test_idle_until_started_then_inserting() -> None:
     sup = _supervisor()
-    assert sup.on_response(0.0, np.zeros(5)) is None and sup.phase == "idle"
     assert sup.start(0.0) == (False, "no recent features: is the kinematics node running?")
     sup.on_features(0.0, np.zeros(5))
-    ok, _ = sup.start(0.0)
-    assert ok and sup.phase == "inserting"
-    command = sup.on_response(0.001, np.zeros(5))
+    ok, why = sup.start(0.0)
+    assert not ok and why.startswith("no recent compensated wrench")
+    assert sup.on_response(0.0, np.zeros(5)) is None and sup.phase == "idle"
+    sup.on_features(0.051, np.zeros(5))
+    ok, why = sup.start(0.051)  # that wrench is stale by then
+    assert not ok and why.startswith("no recent compensated wrench")
+    assert sup.on_response(0.052, np.zeros(5)) is None
+    assert sup.not_armed(0.052) == ""  # armed: a start now is accepted
+    ok, _ = sup.start(0.052)
+    assert ok and sup.phase == "inserting" and sup.not_armed(0.052) == "already inserting"
+    command = sup.on_response(0.053, np.zeros(5))
     assert command is not None and command[2] == pytest.approx(5e-3 * DT)  # the depth ramp
 
 
@@ -64,7 +77,7 @@ def test_faults_hold_and_say_why(event, reason, holds) -> None:
     else the last command."""
     sup = _supervisor()
     sup.on_features(0.0, np.zeros(5))
-    sup.start(0.0)
+    _start(sup, 0.0)
     last = sup.on_response(0.0005, np.zeros(5))
     measured = np.full(5, 1e-6)
     sup.on_features(0.0006, measured)  # the arm, measured a little behind its command
@@ -77,7 +90,7 @@ def test_faults_hold_and_say_why(event, reason, holds) -> None:
 def test_a_force_limit_holds_where_the_arm_is() -> None:
     sup = _supervisor()
     sup.on_features(0.0, np.zeros(5))
-    sup.start(0.0)
+    _start(sup, 0.0)
     sup.on_response(0.001, np.zeros(5))
     sup.on_features(0.0015, np.full(5, 2e-6))
     assert np.array_equal(sup.on_response(0.002, [0, 0, 400.0, 0, 0]), np.full(5, 2e-6))
@@ -89,7 +102,7 @@ def test_a_stall_of_our_own_is_not_stale_input() -> None:
     waits one timeout for the queued input; input that then still does not come faults."""
     sup = _supervisor(timeout=0.05)
     sup.on_features(0.0, np.zeros(5))
-    sup.start(0.0)
+    _start(sup, 0.0)
     sup.watchdog(0.2)
     assert sup.phase == "inserting" and sup.stalls == 1
     sup.on_features(0.201, np.zeros(5))
@@ -105,7 +118,7 @@ def test_a_stall_of_our_own_is_not_stale_input() -> None:
 def test_stale_features_fault_on_the_next_wrench() -> None:
     sup = _supervisor(timeout=0.01)
     sup.on_features(0.0, np.zeros(5))
-    sup.start(0.0)
+    _start(sup, 0.0)
     sup.on_response(0.02, np.zeros(5))
     assert sup.phase == "fault" and "stale features" in sup.reason
 
@@ -113,13 +126,13 @@ def test_stale_features_fault_on_the_next_wrench() -> None:
 def test_force_limit_and_abort() -> None:
     sup = _supervisor()
     sup.on_features(0.0, np.zeros(5))
-    sup.start(0.0)
+    _start(sup, 0.0)
     sup.on_response(0.001, [0, 0, 400.0, 0, 0])
     assert sup.phase == "force_limit" and "over the limit 300.0 N" in sup.reason
     assert sup.abort() == (False, "nothing to abort: force_limit")
     sup2 = _supervisor()
     sup2.on_features(0.0, np.zeros(5))
-    sup2.start(0.0)
+    _start(sup2, 0.0)
     assert sup2.abort()[0] and sup2.phase == "aborted"
 
 
@@ -129,37 +142,37 @@ def test_a_fault_or_a_force_limit_must_be_reset_before_a_new_start(end: str) -> 
     returns to idle (the command still held), and the next start runs from the features."""
     sup = _supervisor()
     sup.on_features(0.0, np.zeros(5))
-    sup.start(0.0)
+    _start(sup, 0.0)
     sup.on_response(0.001, np.zeros(5))
     if end == "fault":
         sup.fault("IK failed: out of reach", 0.0015)
     else:
         sup.on_response(0.002, [0, 0, 400.0, 0, 0])
     assert sup.phase == end
-    ok, why = sup.start(0.003)
+    ok, why = _start(sup, 0.003)
     assert not ok and why.startswith(f"{end} (") and "acknowledge it with reset first" in why
     ok, said = sup.reset()
     assert ok and said.startswith(f"{end} acknowledged") and sup.phase == "idle"
     # still held where the arm was measured when it ended (here the start's features)
     np.testing.assert_array_equal(sup.on_response(0.004, np.ones(5)), np.zeros(5))
     sup.on_features(0.004, np.full(5, 1e-5))
-    assert sup.start(0.004)[0] and sup.phase == "inserting"
+    assert _start(sup, 0.004)[0] and sup.phase == "inserting"
     np.testing.assert_array_equal(sup.command, np.full(5, 1e-5))  # from where the arm is
 
 
 def test_reset_is_refused_while_inserting_and_an_abort_needs_none() -> None:
     sup = _supervisor()
     sup.on_features(0.0, np.zeros(5))
-    sup.start(0.0)
+    _start(sup, 0.0)
     assert sup.reset() == (False, "inserting: abort it first")
     sup.abort()
-    assert sup.start(0.001)[0]  # aborted: a new insertion at once
+    assert _start(sup, 0.001)[0]  # aborted: a new insertion at once
 
 
 def test_a_command_never_jumps_more_than_the_step_limit() -> None:
     sup = _supervisor("admittance", max_step=1e-6, max_step_angle=1e-5)
     sup.on_features(0.0, np.zeros(5))
-    sup.start(0.0)
+    _start(sup, 0.0)
     previous = np.zeros(5)
     for k in range(1, 50):  # a large lateral force: admittance wants a big displacement at once
         command = sup.on_response(k * DT, [50.0, -50.0, 10.0, 1.0, -1.0])
@@ -256,7 +269,7 @@ def test_mock_cell_loop_agrees_with_the_simulator() -> None:
         if out is None:
             continue  # taring
         if sup.phase == "idle":
-            sup.start(t)
+            _start(sup, t)
         command = sup.on_response(t, out.response)
         q = cell.believed.tcp_solution(command, q, DT).q
         cell.command(q)
@@ -291,7 +304,7 @@ def test_the_law_steps_the_time_between_sample_stamps() -> None:
         law.step = spy  # type: ignore[method-assign]
         sup = Supervisor(law, DT, SafetyLimits(timeout=1.0))
         sup.on_features(0.0, np.zeros(5))
-        sup.start(0.0)
+        _start(sup, 0.0)
         for k, stamp in enumerate(stamps):
             sup.on_response(k * DT, np.zeros(5), stamp)
         return sup

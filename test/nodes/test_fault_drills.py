@@ -1,0 +1,87 @@
+"""Every fault drill of ``fbcc_bringup --fault`` on the hardware-free cell over real DDS, recorded:
+the cell ends safe — the true contact force and moment within the wrench guard's limits, no
+joint-command step beyond what the velocity limits allow, the bag complete (for a full disk:
+holding exactly what its metadata counts) — with the outcome each fault calls for, and the
+reason naming what caught it."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import yaml
+from rosbags.rosbag2 import Reader
+
+from fbcc_ros.bag.reader import read_bag
+from fbcc_ros.bag.recover import recover
+from fbcc_ros.harness.fault_drill import DRILLS
+from fbcc_ros.nodes.bringup import main as bringup_main
+from test.nodes.test_cell_ros import REALTIME, SCENARIO
+
+#: What each drill must end in, and a part of the reason that says what caught it.
+EXPECTED = {
+    "moment-spike": ("held", "wrench guard: raw ty"),
+    "force-spike": ("held", "wrench guard: |f|"),
+    "nan-wrench": ("recovered", "stale compensated wrench"),
+    "stale-wrench": ("held", "stale compensated wrench"),
+    "future-stamp": ("recovered", "stale compensated wrench"),
+    "slow-sensor": ("recovered", "arrives at 100.0 Hz, configured for 1000 Hz"),
+    "sensor-burst": ("recovered", ""),
+    "compensation-restart": ("recovered", ""),
+    "controller-restart": ("recovered", ""),
+    "kinematics-restart": ("recovered", ""),
+    "tare-under-load": ("refused", "fbcc/start refused: no recent compensated wrench"),
+    "deadband-param": ("held", "wrench guard: |f|"),
+    "lowpass-param": ("recovered", ""),
+    "max-step-param": ("refused", "at most its start-up value"),
+    "start-after-fault": ("refused", "acknowledge it with reset first"),
+    "disk-full": ("recovered", ""),
+}
+
+
+def test_every_drill_has_an_expectation() -> None:
+    assert sorted(EXPECTED) == sorted(DRILLS)
+
+
+@REALTIME
+@pytest.mark.parametrize("name", list(DRILLS))
+def test_a_fault_drill_ends_safe(name: str, tmp_path: Path, capfd) -> None:
+    status = bringup_main([str(SCENARIO), "--fault", name, "--out", str(tmp_path)])
+    out = capfd.readouterr()
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    drill = summary["fault_drill"]
+    assert status == 0 and drill["safe"], (drill, out.out[-2000:])
+    assert f"fault drill {name}: {drill['outcome']}" in out.out and "SAFE" in out.out
+    outcome, reason = EXPECTED[name]
+    assert (drill["outcome"], drill["name"]) == (outcome, name), drill
+    assert reason in drill["reason"] or any(reason in f for f in drill["faults"]), drill
+    # the safety figures themselves, from the mock's ground truth and the joint commands
+    assert 0.0 < drill["peak_force"] <= drill["force_limit"] == 300.0, drill
+    assert 0.0 < drill["peak_moment"] <= drill["moment_limit"] == 30.0, drill
+    assert 0.0 < drill["joint_step"] <= 1.0, drill
+    assert "Traceback" not in out.err
+    bag = read_bag(Path(summary["bag"]["path"]))
+    counted = _metadata_counts(bag.path.parent)
+    assert counted == {t: bag.counts[t] for t in bag.topics}, (counted, bag.counts)
+    assert drill["bag"] == {"complete": not bag.truncated, "consistent": True}
+    if name == "disk-full":  # cut at its last flushed chunk: what was flushed is all there
+        assert bag.truncated and "recording stopped" in " ".join(drill["reports"]), drill
+        last = max(m.log_time_ns for m in bag.messages) * 1e-9
+        assert drill["injected_at"] - 1.0 < last, (drill["injected_at"], last)
+        # fbcc-recover makes it whole: the independent reader opens it, every message there
+        recovered = recover(bag.path.parent)
+        assert recovered is not None
+        with Reader(recovered.bag) as whole:
+            held = {c.topic: c.msgcount for c in whole.connections if c.msgcount}
+            assert held == dict(bag.counts), (held, bag.counts)
+    else:
+        assert not bag.truncated
+    if outcome == "recovered":
+        assert summary["phase"] == "inserted" and summary["success"], summary["phase"]
+
+
+def _metadata_counts(folder: Path) -> dict[str, int]:
+    info = yaml.safe_load((folder / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    return {t["topic_metadata"]["name"]: t["message_count"]
+            for t in info["topics_with_message_count"]}  # fmt: skip
