@@ -158,8 +158,10 @@ def replay_offline(bag: Bag, given: dict[str, dict[str, Any]]) -> OfflineResult:
             if key not in flow.commands:
                 counts["dropped_by_controller"] += 1
                 continue
-        if ctrl.sup.phase == Phase.IDLE:
-            ctrl.sup.start(stamp)
+        if ctrl.sup.phase == Phase.IDLE and not ctrl.sup.start(stamp)[0]:
+            # not armed (no recent features or wrench): counted, tried again on the next sample
+            counts["start_refused"] = counts.get("start_refused", 0) + 1
+            continue
         command = ctrl.wrench(stamp, stamp, out.wrench)
         if command is None:
             continue

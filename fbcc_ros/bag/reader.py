@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
 
+import yaml
 from mcap.records import Channel, Footer, McapRecord, Message, Schema
 from mcap.stream_reader import StreamReader
 
@@ -112,6 +113,27 @@ def channel_of(channels: dict[int, T], message: Message, file: Path) -> T:
         raise InputError("bag", str(file), "an mcap whose channels come before their messages "
                          f"(channel {message.channel_id} does not)")  # fmt: skip
     return channels[message.channel_id]
+
+
+def bag_information(folder: Path) -> Any:
+    """The ``rosbag2_bagfile_information`` of the folder's metadata.yaml; None if it is missing
+    or not YAML."""
+    try:
+        return yaml.safe_load((Path(folder) / "metadata.yaml").read_text())[
+            "rosbag2_bagfile_information"]
+    except (OSError, UnicodeDecodeError, yaml.YAMLError, KeyError, TypeError):
+        return None
+
+
+def metadata_counts(folder: Path) -> dict[str, int] | None:
+    """Messages per topic as the folder's metadata.yaml counts them; None without a readable
+    one."""
+    info = bag_information(folder)
+    try:
+        return {t["topic_metadata"]["name"]: t["message_count"]
+                for t in info["topics_with_message_count"]}  # fmt: skip
+    except (KeyError, TypeError):
+        return None
 
 
 def read_bag(path: Path) -> Bag:

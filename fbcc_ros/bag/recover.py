@@ -22,13 +22,17 @@ from __future__ import annotations
 import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
-import yaml
 from mcap.reader import make_reader
 from mcap.records import Attachment, Channel, Message, Metadata, Schema
 
-from fbcc_ros.bag.reader import WholeRecords, channel_of, mcap_file
+from fbcc_ros.bag.reader import (
+    WholeRecords,
+    bag_information,
+    channel_of,
+    mcap_file,
+    metadata_counts,
+)
 from fbcc_ros.bag.writer import ROSBAG2_RECORD, BagWriter, check_new_folder
 
 #: Files of a bag folder the new bag writes itself (the .mcap is the one read)
@@ -75,22 +79,13 @@ def is_complete(file: Path) -> bool:
     stats = summary.statistics
     in_file = {c.topic: stats.channel_message_counts.get(c.id, 0)
                for c in summary.channels.values()}  # fmt: skip
-    info = _metadata(file.parent / "metadata.yaml")
+    info = bag_information(file.parent)
     try:
-        counted = {t["topic_metadata"]["name"]: t["message_count"]
-                   for t in info["topics_with_message_count"]}  # fmt: skip
-        return bool(info["relative_file_paths"] == [file.name] and counted == in_file
+        return bool(info["relative_file_paths"] == [file.name]
+                    and metadata_counts(file.parent) == in_file
                     and info["message_count"] == stats.message_count)  # fmt: skip
     except (KeyError, TypeError):
         return False  # missing or not rosbag2's
-
-
-def _metadata(path: Path) -> Any:
-    """metadata.yaml's ``rosbag2_bagfile_information``; None if missing or not YAML."""
-    try:
-        return yaml.safe_load(path.read_text())["rosbag2_bagfile_information"]
-    except (OSError, UnicodeDecodeError, yaml.YAMLError, KeyError, TypeError):
-        return None
 
 
 def recover(bag: Path, out: Path | None = None) -> Recovery | None:

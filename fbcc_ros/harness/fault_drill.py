@@ -11,18 +11,23 @@ is.
 
 What it reports (:meth:`DrillWatch.result`, the summary's ``fault_drill``):
 
-* ``outcome``: ``refused`` (a request the drill made was refused: a parameter, a start, a tare),
-  else the controller's last phase: ``held`` (fault or force limit, holding), ``aborted``, or
-  ``recovered`` (inserting or inserted: the fault passed, with or without a reset);
-* ``reason``: the refusal, or the first fault the controller reported after the injection;
-* the largest true contact force |f| and moment |m| (the mock's ground truth) against the
-  wrench guard's limits, and the largest joint-command step as a fraction of one period at the
-  joint velocity limits (:class:`StepMeter`);
+* ``outcome``: ``refused`` (a request the drill made was refused: a parameter, a start), else
+  from the controller's last phase: ``held`` (fault or force limit holding; idle, its last
+  command held), ``aborted``, or ``recovered`` (inserting or inserted: the fault passed, with or
+  without a reset);
+* ``reason``: the refusal, else the first fault the controller reported after the injection,
+  else what a node warned of (a sensor's rate, the recorder's stop);
+* the largest true contact force |f| and moment |m| about the {H} origin (kept by the mock's
+  plant at every step, so no sample the loop drops is missed) against the running wrench
+  guard's limits, and the largest joint-command step as a fraction of one period's travel at
+  the joint velocity limits (:class:`StepMeter`);
 * whether the bag is complete and consistent (read back: its metadata counts what the file
   holds).
 
-``safe`` (exit status 0) when no limit was exceeded and the bag is complete and consistent — for
-``disk-full``, cut at its last flushed chunk and consistent (nothing flushed is lost).
+``safe`` when no limit was exceeded and the bag is complete and consistent (for ``disk-full``,
+cut at its last flushed chunk and consistent); ``as_expected`` when the outcome is the one the
+fault calls for (:class:`Drill`) and, for ``disk-full``, the recording was cut. The bringup
+exits 0 when both hold.
 """
 
 from __future__ import annotations
@@ -39,6 +44,8 @@ from std_msgs.msg import Float64MultiArray
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.compensation.wrench_guard import GuardLimits
+from fbcc_ros.core.control.phase import ACTIVE, NEEDS_RESET, Phase
+from fbcc_ros.core.errors import FbccError
 from fbcc_ros.core.sim.sensor_faults import SENSOR_FAULTS
 from fbcc_ros.ros import topics
 from fbcc_ros.ros.convert import positions_from_cdr
@@ -54,9 +61,9 @@ DISK_LEFT = 64 * 1024
 
 
 class StepMeter:
-    """The largest joint-command step, as a fraction of what the joint velocity limits allow
-    in the time between two commands (one period, or as many whole periods as passed between
-    their arrivals: a dropped command leaves the arm two periods for the next).
+    """The largest step between two successive joint commands, as a fraction of one control
+    period's travel at the joint velocity limits: a position-controlled arm (FRI, a forward
+    position controller) applies each command within a cycle, however long it was in coming.
 
     Args:
         node: The node to subscribe ``joint_command`` on.
@@ -66,24 +73,21 @@ class StepMeter:
 
     def __init__(self, node: Any, velocity_limit: FloatArray, dt: float) -> None:
         self.limit = np.asarray(velocity_limit, dtype=float) * dt
-        self.dt = dt
         self.worst = 0.0
-        self._last: tuple[float, FloatArray] | None = None
+        self._last: FloatArray | None = None
         node.create_subscription(Float64MultiArray, topics.JOINT_COMMAND, self.on_command, 100,
                                  raw=True)  # fmt: skip
 
     def on_command(self, data: bytes) -> None:
-        now, q = time.monotonic(), positions_from_cdr(data)
-        if self._last is not None and q.shape == self._last[1].shape:
-            periods = max(1, round((now - self._last[0]) / self.dt))
-            step = float(np.max(np.abs(q - self._last[1]) / (self.limit * periods)))
-            self.worst = max(self.worst, step)
-        self._last = (now, q)
+        q = positions_from_cdr(data)
+        if self._last is not None and q.shape == self._last.shape:
+            self.worst = max(self.worst, float(np.max(np.abs(q - self._last) / self.limit)))
+        self._last = q
 
 
 @dataclasses.dataclass
 class DrillWatch:
-    """What a drill did and saw while the cell ran (filled by the drill's steps)."""
+    """What a drill did and saw while the cell ran (filled by :func:`run_drill`)."""
 
     name: str
     refused: list[str] = dataclasses.field(default_factory=list)
@@ -92,47 +96,51 @@ class DrillWatch:
     rejected: dict[str, int] = dataclasses.field(default_factory=dict)
     reports: list[str] = dataclasses.field(default_factory=list)  # what the nodes warned of
     injected_at: float = 0.0  # system time [s]
+    #: the true contact's largest |f| [N] and |m| about the {H} origin [N·m] (the mock's)
+    peak: tuple[float, float] = (0.0, 0.0)
+    guard: GuardLimits = dataclasses.field(default_factory=GuardLimits)  # the running one's
 
     def outcome(self, phase: str) -> str:
         if self.refused:
             return "refused"
-        if phase in ("fault", "force_limit", "idle"):
-            return "held"
-        return "aborted" if phase == "aborted" else "recovered"
+        if phase == Phase.ABORTED:
+            return "aborted"
+        return "recovered" if phase in ACTIVE else "held"  # idle: the arm holds its command
 
-    def result(
-        self,
-        phase: str,
-        truth: FloatArray,
-        joint_step: float,
-        guard: GuardLimits,
-        bag: dict[str, Any] | None,
-    ) -> dict[str, Any]:
-        """The summary's ``fault_drill``: ``truth`` the mock's rows since the start
-        (``topics.TRUTH_FIELDS``)."""
-        force = float(np.max(np.linalg.norm(truth[:, 6:9], axis=1))) if len(truth) else 0.0
-        moment = float(np.max(np.linalg.norm(truth[:, 9:11], axis=1))) if len(truth) else 0.0
+    def result(self, phase: str, joint_step: float, bag: dict[str, Any] | None
+               ) -> dict[str, Any]:  # fmt: skip
+        """The summary's ``fault_drill`` (module doc); ``bag`` the bringup's ``bag``."""
+        drill = DRILLS[self.name]
+        (force, moment), guard = self.peak, self.guard
         unsafe = []
         if force > guard.force_limit:
             unsafe.append(f"true |f| {force:.1f} N over {guard.force_limit:g} N")
         if moment > guard.moment_limit:
             unsafe.append(f"true |m| {moment:.2f} N·m over {guard.moment_limit:g} N·m")
         if joint_step > 1.0:
-            unsafe.append(f"a joint-command step {joint_step:.2f} × the velocity limit's")
+            unsafe.append(f"a joint-command step {joint_step:.2f} times one period's travel")
         recorded = None
         if bag is not None:  # a full disk cuts the bag: what it holds must be what it counts
             recorded = {"complete": not bag["truncated"],
                         "consistent": bag["metadata_counts"] == bag["messages"]}  # fmt: skip
             if not recorded["consistent"]:
                 unsafe.append("the bag's metadata counts other messages than its file holds")
-            if bag["truncated"] and self.name != "disk-full":
+            if bag["truncated"] and not drill.cuts_bag:
                 unsafe.append(f"the bag is cut short: {bag['truncated']}")
         outcome = self.outcome(phase)
+        unexpected = []
+        if outcome != drill.expected:
+            unexpected.append(f"outcome {outcome}, where this fault calls for {drill.expected}")
+        if drill.cuts_bag and (recorded is None or recorded["complete"]):
+            unexpected.append("the recording was not cut: the fault did not take")
         reason = (self.refused or self.faults or self.reports or [f"no fault; phase {phase}"])[0]
         return {
             "name": self.name,
-            "what": DRILLS[self.name].what,
+            "what": drill.what,
             "outcome": outcome,
+            "expected": drill.expected,
+            "as_expected": not unexpected,
+            "unexpected": unexpected,
             "reason": reason,
             "steps": self.said,
             "faults": self.faults,
@@ -153,12 +161,15 @@ class DrillWatch:
 
 @dataclasses.dataclass(frozen=True)
 class Drill:
-    """A fault and how it is injected: ``inject(run, watch, bag)`` on the running cell; with
-    ``resume`` the drill then resets and starts again after :data:`HOLD_FOR`."""
+    """A fault, how it is injected (``inject(run, watch, bag)`` on the running cell) and the
+    outcome it calls for; with ``resume`` the drill then resets and starts again after
+    :data:`HOLD_FOR`; ``cuts_bag``: the fault ends the recording early."""
 
     what: str
     inject: Callable[[Any, DrillWatch, Path | None], None]
+    expected: str
     resume: bool = False
+    cuts_bag: bool = False
 
 
 def _sensor(name: str) -> Callable[[Any, DrillWatch, Path | None], None]:
@@ -213,7 +224,7 @@ def _compensation_restart(run: Any, watch: DrillWatch, bag: Path | None) -> None
 
 def _start_after_fault(run: Any, watch: DrillWatch, bag: Path | None) -> None:
     _set(run, watch, "mock_cell", "sensor_fault", "force-spike")
-    run.spin_until(lambda: run.observer.phase in ("fault", "force_limit"), 2.0,
+    run.spin_until(lambda: run.observer.phase in NEEDS_RESET, 2.0,
                    "no fault after the force spike")  # fmt: skip
     _call(run, watch, "start")
 
@@ -240,34 +251,40 @@ def _disk_full(run: Any, watch: DrillWatch, bag: Path | None) -> None:
     watch.said.append(f"recorder limited to {(size + DISK_LEFT) / 1e6:.2f} MB of file")
 
 
-#: The sensor faults that pass, after which the drill resets and starts again: the path comes
-#: back (a sensor path blocked for good would leave the start refused).
-_PASSING = ("nan-wrench", "future-stamp")
+#: What each sensor fault calls for: a guard trip or a stale input holds; the faults that pass
+#: are then reset and started again, and the path must come back (a sensor path blocked for
+#: good would leave the start refused); a slow sensor or a burst is not a fault.
+_SENSOR_EXPECTED = {"moment-spike": "held", "force-spike": "held", "stale-wrench": "held",
+                    "nan-wrench": "recovered", "future-stamp": "recovered",
+                    "slow-sensor": "recovered", "sensor-burst": "recovered"}  # fmt: skip
 
 DRILLS: dict[str, Drill] = {
-    **{name: Drill(f"sensor: {what}", _sensor(name), resume=name in _PASSING)
+    **{name: Drill(f"sensor: {what}", _sensor(name), _SENSOR_EXPECTED[name],
+                   resume=name in ("nan-wrench", "future-stamp"))
        for name, what in SENSOR_FAULTS.items()},
     "compensation-restart": Drill(
         "the compensation node killed and started anew with the bias it had measured",
-        _compensation_restart, resume=True),
+        _compensation_restart, "recovered", resume=True),
     "controller-restart": Drill("the controller node killed and started anew",
-                                _restart("fbcc_controller"), resume=True),
+                                _restart("fbcc_controller"), "recovered", resume=True),
     "kinematics-restart": Drill("the kinematics node killed and started anew",
-                                _restart("kinematics"), resume=True),
+                                _restart("kinematics"), "recovered", resume=True),
     "tare-under-load": Drill(
         "the compensation node started anew with its start-up tare, the peg in the hole",
-        _restart("dynamic_compensation"), resume=True),
+        _restart("dynamic_compensation"), "refused", resume=True),
     "deadband-param": Drill("the compensation's dead band set to [200 N, 20 N·m] while running",
                             lambda run, w, b: _set(run, w, "dynamic_compensation", "deadband",
-                                                   [200.0, 20.0])),
+                                                   [200.0, 20.0]), "held"),
     "lowpass-param": Drill("the compensation's low-pass set to 1 Hz while running",
                            lambda run, w, b: _set(run, w, "dynamic_compensation", "lowpass_hz",
-                                                  1.0)),
+                                                  1.0), "recovered"),
     "max-step-param": Drill("the controller's max_step set to 10 mm (200 times) while running",
-                            lambda run, w, b: _set(run, w, "fbcc_controller", "max_step", 0.01)),
+                            lambda run, w, b: _set(run, w, "fbcc_controller", "max_step", 0.01),
+                            "refused"),
     "start-after-fault": Drill("a force spike faults the controller, then start without reset",
-                               _start_after_fault),
-    "disk-full": Drill("the recorder's disk fills up (its files may not grow)", _disk_full),
+                               _start_after_fault, "refused"),
+    "disk-full": Drill("the recorder's disk fills up (its files may not grow)", _disk_full,
+                       "recovered", cuts_bag=True),
 }  # fmt: skip
 
 
@@ -290,17 +307,21 @@ def run_drill(run: Any, name: str, duration: float, bag: Path | None,
         progress(time.monotonic() - t0)
 
     run.spin_for(INJECT_AT, clock)
-    counts = _rejections(run)
+    if observer.phase != Phase.INSERTING:
+        raise FbccError(f"fault drill {name}: the insertion was not running when the fault "
+                        f"was due ({stage_said(observer)})")
+    comp = run.nodes.get("dynamic_compensation")
+    counts = _rejections(comp)
     first_phase = len(observer.phases)
     print(f"  fault drill {name}: {drill.what}", flush=True)
     watch.injected_at = time.time()
     drill.inject(run, watch, bag)
     if drill.resume:
         run.spin_for(HOLD_FOR, clock)
-        if observer.phase in ("fault", "force_limit"):
+        if observer.phase in NEEDS_RESET:
             _call(run, watch, "reset")
-        if observer.phase not in ("inserting", "inserted") and _call(run, watch, "start"):
-            run.spin_until(lambda: observer.phase == "inserting", 2.0, "no phase inserting")
+        if observer.phase not in ACTIVE and _call(run, watch, "start"):
+            run.spin_until(lambda: observer.phase == Phase.INSERTING, 2.0, "no phase inserting")
     run.spin_for(duration, clock)  # a resumed insertion has its whole time
     controller = run.nodes.get("fbcc_controller")
     if controller is not None and controller.stage.input_rate.mismatch():
@@ -309,16 +330,25 @@ def run_drill(run: Any, name: str, duration: float, bag: Path | None,
     if "fbcc_record" in run.procs and log.exists():
         said = log.read_text(errors="replace").splitlines()
         watch.reports += [line.split("]: ", 1)[-1] for line in said if "recording stopped" in line]
-    after = _rejections(run)
+    # a restarted compensation counts from zero: its counts add to what the killed one added
+    now = run.nodes.get("dynamic_compensation")
+    old = _rejections(comp) if now is not comp else {}
+    after = {k: v + old.get(k, 0) for k, v in _rejections(now).items()}
     watch.rejected = {k: after[k] - counts.get(k, 0) for k in after
                       if after[k] > counts.get(k, 0)}  # fmt: skip
     watch.faults = [p for p in observer.phases[first_phase:] if ":" in p]
+    watch.peak = tuple(float(v) for v in run.nodes["mock_cell"].cell.peak)  # type: ignore[assignment]
+    watch.guard = now.stage.setup.guard if now is not None else watch.guard
     return watch
 
 
-def _rejections(run: Any) -> dict[str, int]:
-    """The compensation's rejected-sample counts (a restarted node counts from zero)."""
-    node = run.nodes.get("dynamic_compensation")
+def stage_said(observer: Any) -> str:
+    """The observed phase, with its reason if any."""
+    return f"{observer.phase}: {observer.reason}" if observer.reason else str(observer.phase)
+
+
+def _rejections(node: Any) -> dict[str, int]:
+    """A compensation node's rejected-sample counts (none without one)."""
     if node is None:
         return {}
     return {k: v for k, v in node.stage.comp.counts.items() if k not in ("accepted", "taring")}

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile
 from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import Trigger
 
@@ -41,6 +42,9 @@ class Observer(Node):
             sub(Float64MultiArray, topics.TRUTH, keep_truth, 100, raw=True)  # type: ignore[arg-type]
         ]
         sub(String, topics.PHASE, self.on_phase, topics.PHASE_QOS)
+        # the history: the latched subscription keeps only the newest of phases sent close
+        sub(String, topics.PHASE, self.on_phase_history,
+            QoSProfile(depth=50, durability=DurabilityPolicy.TRANSIENT_LOCAL))
         # counting needs no decoding: raw (serialised) messages spare ~30 µs each
         for kind, topic, key in (
             (WrenchStamped, topics.COMPENSATED_WRENCH, "compensated"),
@@ -63,8 +67,10 @@ class Observer(Node):
 
         return count
 
-    def on_phase(self, msg: String) -> None:
+    def on_phase_history(self, msg: String) -> None:
         self.phases.append(msg.data)
+
+    def on_phase(self, msg: String) -> None:
         self.phase, _, self.reason = (part.strip() for part in msg.data.partition(":"))
 
     def on_tcp_command(self, data: bytes) -> None:

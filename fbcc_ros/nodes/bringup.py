@@ -14,6 +14,8 @@ its disk writes stay off the loop's core) into ``DIR/bags/fbcc_<date>_<time>`` (
 without ``--out``), or into ``--bag``; the insertion starts only once the recorder hears every
 topic, and the summary says what the bag holds. Exit status 0 when the assembly succeeded, 1
 when it did not (or the controller faulted), 2 on bad input or a cell that does not come up.
+With ``--fault NAME`` the run is a fault drill (:mod:`fbcc_ros.harness.fault_drill`): exit 0
+when the cell ended safe with the outcome the fault calls for, 1 otherwise.
 """
 
 from __future__ import annotations
@@ -27,7 +29,6 @@ from typing import Any
 import numpy as np
 
 from fbcc_ros.bag.writer import check_new_folder
-from fbcc_ros.core.compensation.wrench_guard import GuardLimits
 from fbcc_ros.core.errors import FbccError, InputError, command
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import score
@@ -176,24 +177,12 @@ def write_parameters(bag: Path, specs: list[NodeSpec]) -> None:
 
 def bag_contents(bag: Path) -> dict[str, Any]:
     """What the recorded bag holds, read back: path, messages per topic, truncated or not."""
-    from fbcc_ros.bag.reader import read_bag
+    from fbcc_ros.bag.reader import metadata_counts, read_bag
 
     recorded = read_bag(bag)
     messages = {topic: recorded.counts[topic] for topic in recorded.topics}
     return {"path": str(bag), "messages": messages, "truncated": recorded.truncated,
             "metadata_counts": metadata_counts(bag)}  # fmt: skip
-
-
-def metadata_counts(bag: Path) -> dict[str, int]:
-    """Messages per topic as the bag's ``metadata.yaml`` counts them (none without one)."""
-    import yaml
-
-    path = bag / "metadata.yaml"
-    if not path.exists():
-        return {}
-    info = yaml.safe_load(path.read_text())["rosbag2_bagfile_information"]
-    return {t["topic_metadata"]["name"]: t["message_count"]
-            for t in info["topics_with_message_count"]}  # fmt: skip
 
 
 def start_insertion(run: CellRun, timeout: float) -> None:
@@ -287,9 +276,18 @@ def run_cell(
         write_parameters(bag, specs)
         summary["bag"] = bag_contents(bag)
     if fault:
-        summary["fault_drill"] = watch.result(phase, truth, meter.worst, GuardLimits(),
-                                              summary.get("bag"))  # fmt: skip
+        summary["fault_drill"] = watch.result(phase, meter.worst, summary.get("bag"))
     return summary
+
+
+def _drill_said(drill: dict[str, Any]) -> str:
+    verdict = "SAFE" if drill["safe"] else "UNSAFE: " + "; ".join(drill["unsafe"])
+    if not drill["as_expected"]:
+        verdict += "; NOT AS EXPECTED: " + "; ".join(drill["unexpected"])
+    return (f"fault drill {drill['name']}: {drill['outcome']} ({drill['reason']}); true |f| "
+            f"≤ {drill['peak_force']:.1f} N (limit {drill['force_limit']:g}), |m| ≤ "
+            f"{drill['peak_moment']:.2f} N·m (limit {drill['moment_limit']:g}); largest joint "
+            f"step {drill['joint_step']:.2f} of a period's travel; {_bag_said(drill)} — {verdict}")
 
 
 def _bag_said(drill: dict[str, Any]) -> str:
@@ -349,17 +347,13 @@ def main(argv: list[str] | None = None) -> int:
               f"{len(recorded['messages'])} topics into {recorded['path']}{cut}")  # fmt: skip
     drill = summary.get("fault_drill")
     if drill:
-        print(f"fault drill {drill['name']}: {drill['outcome']} ({drill['reason']}); true |f| "
-              f"≤ {drill['peak_force']:.1f} N (limit {drill['force_limit']:g}), |m| ≤ "
-              f"{drill['peak_moment']:.2f} N·m (limit {drill['moment_limit']:g}); largest "
-              f"joint step {drill['joint_step']:.2f} of the velocity limit's; {_bag_said(drill)}"
-              f" — {'SAFE' if drill['safe'] else 'UNSAFE: ' + '; '.join(drill['unsafe'])}")
+        print(_drill_said(drill))
     if args.out:
         args.out.mkdir(parents=True, exist_ok=True)
         (args.out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         print(f"wrote {args.out / 'summary.json'}")
     if drill:
-        return 0 if drill["safe"] else 1
+        return 0 if drill["safe"] and drill["as_expected"] else 1
     return 0 if summary["success"] else 1
 
 

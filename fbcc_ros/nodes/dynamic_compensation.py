@@ -40,7 +40,8 @@ class DynamicCompensationNode(Node):
         self.out_compensated = Outlet(
             self.create_publisher(WrenchStamped, topics.COMPENSATED_WRENCH, 10))
         self.pub_bias = self.create_publisher(WrenchStamped, topics.BIAS, topics.PHASE_QOS)
-        self.out_guard = Outlet(self.create_publisher(String, topics.GUARD, topics.PHASE_QOS))
+        self.out_guard = Outlet(self.create_publisher(String, topics.GUARD, topics.PHASE_QOS),
+                                latched=True)
         self.create_subscription(String, topics.REARM, self.on_rearm, 10)
         self._publish_bias(self.get_clock().now().nanoseconds * 1e-9)
         sub = self.create_subscription  # raw: CDR bytes, decoded by fbcc_ros.ros.convert

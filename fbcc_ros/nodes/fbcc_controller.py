@@ -117,7 +117,8 @@ class FbccControllerNode(Node):
         if row is not None:
             self.pub_estimate.publish(encode_array(row, ESTIMATE_LAYOUT))
         if command is not None:
-            # stamped with the sample it answers, so latency is traceable down the chain
+            # stamped with the sample it answers, so latency is traceable down the chain (a hold
+            # or a retract answers none: stamped when sent, matching no sample in a replay)
             self.out_command.publish(pose_to_cdr(command, topics.HOLE_FRAME, stamp))
         # the segmentation costs ~50 µs a period: only for someone listening
         if self.pub_state.get_subscription_count():

@@ -118,6 +118,7 @@ class CompensationStage:
                               "torques give the wrench at the wrist)")  # fmt: skip
         self.robot = robot if self.setup.placement == "wrist" else None
         self.comp = Compensator(self.setup, self.robot)
+        self._filters = (values["lowpass_hz"], values["deadband"])
         self._untared = self.setup.tare_samples > 0
         self.just_tared = False
         self.just_tripped = False
@@ -125,7 +126,8 @@ class CompensationStage:
 
     def apply(self, values: dict[str, Any]) -> None:
         """The runtime parameters (``lowpass_hz``, ``deadband``)."""
-        self.comp.set_filters(values["lowpass_hz"], values["deadband"])
+        self._filters = (values["lowpass_hz"], values["deadband"])
+        self.comp.set_filters(*self._filters)
 
     def retare(self, samples: int, bias: Sequence[float] | None = None) -> None:
         """A fresh compensator that tares on ``samples`` readings (at most the configured
@@ -135,6 +137,7 @@ class CompensationStage:
         if bias is not None:
             setup = dataclasses.replace(setup, bias=tuple(bias))
         self.comp = Compensator(setup, self.robot)
+        self.comp.set_filters(*self._filters)  # as set while running
         self._untared = tare > 0
         self._tripped_said = False
 

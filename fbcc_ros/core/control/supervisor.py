@@ -76,6 +76,8 @@ class Supervisor:
         law: The compliance law (FBCC, admittance or none).
         dt: The control period the law is discretised for [s].
         limits: Timeouts and step limits.
+        retract: How far to withdraw along the hole axis after a fault or a force limit [m]
+            (0: hold where the arm is).
     """
 
     def __init__(self, law: Law, dt: float, limits: SafetyLimits, retract: float = 0.0) -> None:
@@ -109,19 +111,25 @@ class Supervisor:
         return self.phase in ACTIVE
 
     def fault(self, reason: str, now: float) -> None:
-        """Stop, saying why, and hold where the arm is (:meth:`_hold`)."""
+        """Stop, saying why, and hold where the arm is (:meth:`_hold`). A fault while already
+        holding stops a retract where the arm is and is added to the reason."""
         if self.active or self.phase == Phase.IDLE:
             self.phase, self.reason = Phase.FAULT, reason
             self._hold(now)
+        elif self.phase in NEEDS_RESET and reason not in self.reason:
+            self.reason = f"{self.reason}; then {reason}"
+            if self._retract_to is not None:
+                self._retract_to = None
+                self._hold(now, retract=False)
 
-    def _hold(self, now: float) -> None:
+    def _hold(self, now: float, retract: bool = True) -> None:
         """The command becomes the measured features when they are fresh at ``now``: the arm
         stops where it is instead of going on to a command it has not reached (one step, plus
         its lag, further into the hole). With stale features the last command stays."""
         if (self.command is not None and self.features is not None
                 and now - self._t_features <= self.limits.timeout):  # fmt: skip
             self.command = self.features.copy()
-        if self.retract > 0.0 and self.command is not None:
+        if retract and self.retract > 0.0 and self.command is not None:
             self._retract_to = self.command - np.array([0.0, 0.0, self.retract, 0.0, 0.0])
 
     def on_features(self, now: float, features: ArrayLike) -> FloatArray | None:
@@ -134,8 +142,8 @@ class Supervisor:
         self.features, self._t_features = x, now
         if self._retract_to is None or self.phase not in NEEDS_RESET or self.command is None:
             return None
-        if np.array_equal(self.command, self._retract_to):
-            return None
+        if np.abs(self._retract_to - self.command).max() < 1e-12:
+            return None  # withdrawn (to rounding)
         self.command = self.limits.clip(self.command, self._retract_to)
         return self.command
 

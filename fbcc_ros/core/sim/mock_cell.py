@@ -100,6 +100,10 @@ class MockCell:
         self.q_cmd = self.q.copy()
         self.fixture = fixture
         self._acting = pin.SE3(np.eye(3), self.geometry.acting_point_in_hole())
+        #: the largest true contact |f| [N] and |m| about the true {H} origin [N·m] so far, as
+        #: the wrench guard measures them (it sees only the samples its loop takes)
+        self.peak = np.zeros(2)
+        self._to_origin = transfer_matrix(self._acting)
         self.sensor_in_hole = self._acting  # at the acting point, axes as the true hole's
         # the peg's wrench on the hole at the acting point, read in {S}: T_S_A = T_S_H T_H_A
         self._to_sensor = transfer_matrix(self.sensor_in_hole.actInv(self._acting))
@@ -139,7 +143,11 @@ class MockCell:
         x = self.truth.features(self.q)
         x[2] = max(x[2], 0.0)  # above the hole: no contact
         response = self.geometry.response(x)
-        contact = self._to_sensor @ wrench_from_response(response)
+        at_acting = wrench_from_response(response)
+        at_origin = self._to_origin @ at_acting  # tau_O = tau_A + p_A x f
+        self.peak = np.maximum(self.peak, (np.linalg.norm(at_origin[:3]),
+                                           np.linalg.norm(at_origin[3:])))  # fmt: skip
+        contact = self._to_sensor @ at_acting
         noise = self._noise * self._rng.standard_normal(6)
         raw = contact + self._weight + self._bias + noise
         return CellSample(self.q.copy(), (self.q - q_prev) / dt, raw, x, response)

@@ -33,7 +33,7 @@ SPIKE_SPAN = 0.05
 NAN_SPAN = 0.1
 SILENT_SPAN = 0.3
 FUTURE_SPAN = 0.1
-BURST_SPAN = 0.03
+BURST_SPAN = 0.03  # 31 readings at once: a depth-10 subscriber keeps the newest 10
 #: How far ahead the restamped readings are [s].
 FUTURE_BY = 1.0
 #: The slow sensor's rate [Hz].

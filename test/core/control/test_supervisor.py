@@ -97,6 +97,38 @@ def test_a_force_limit_holds_where_the_arm_is() -> None:
     assert sup.phase == "force_limit"
 
 
+def test_a_retract_withdraws_along_the_axis_one_step_per_features_until_reset_or_a_trip() -> None:
+    """With ``retract`` 0.2 mm after a force limit: each measured features moves the command
+    one max_step (50 µm) out of the hole, depth only, and it stops at 0.2 mm; a reset ends
+    it; a guard trip while withdrawing stops it where the arm is and is added to the reason."""
+    for ending in ("target", "reset", "trip"):
+        sc = scenario.validate(paper_scenario("interference", "fbcc"))
+        sup = Supervisor(make_law("fbcc", sc.geometry, sc.params, sc.insertion), DT,
+                         SafetyLimits(), retract=2e-4)  # fmt: skip
+        x = np.array([1e-6, 0.0, 5e-3, 0.0, 1e-3])
+        sup.on_features(0.0, x)
+        _start(sup, 0.0)
+        sup.on_response(0.001, [0, 0, 400.0, 0, 0])  # the force limit: hold at x
+        assert sup.phase == "force_limit" and np.array_equal(sup.command, x)
+        depths = []
+        for k in range(8):
+            t = 0.002 + k * DT
+            if ending == "reset" and k == 2:
+                assert sup.reset()[0]
+            if ending == "trip" and k == 2:
+                sup.fault("wrench guard: |f| 290 N over 270 N", t)
+            command = sup.on_features(t, x)
+            depths.append(None if command is None else round(float(command[2] - x[2]), 9))
+            assert np.array_equal(sup.command[[0, 1, 3, 4]], x[[0, 1, 3, 4]])
+        if ending == "target":
+            assert depths == [-5e-5, -1e-4, -1.5e-4, -2e-4, None, None, None, None]
+        else:
+            assert depths[:2] == [-5e-5, -1e-4] and depths[2:] == [None] * 6
+        if ending == "trip":
+            assert sup.reason.endswith("; then wrench guard: |f| 290 N over 270 N")
+            assert np.array_equal(sup.command, x)  # held where the arm was measured
+
+
 def test_a_stall_of_our_own_is_not_stale_input() -> None:
     """The watchdog's first call after 0.2 s without running at all (the process stalled)
     waits one timeout for the queued input; input that then still does not come faults."""
