@@ -10,9 +10,11 @@ far past it, and it has no moment limit. The guard acts in the compensation, on 
 * **limits on the contact**: the compensated wrench in {H}, before any filter, within
   ``force_limit`` (|f|) and ``moment_limit`` (|m| about the {H} origin) less ``stop_margin`` of
   them: the guard trips that far below a limit because the arm goes on pressing until the hold
-  reaches it (the loop's latency times the approach; 7 N past the trip point in the dead-band
+  reaches it (the loop's latency times the approach: 8 N past the trip point in the dead-band
   drill on a loaded two-core machine, docs/safety.md), and the limit is what the contact must
-  never see;
+  never see. The margin must also cover a bias a tare took under a load within ``max_tare``
+  (the guard reads low by as much): 30 N at the defaults, against 8 N of stopping and up to
+  20 N of tare;
 * **a tare only when it is safe**: the bias a tare measures within ``max_tare`` of the
   configured one (a tare under load, the peg in the hole, would take the contact for a bias).
 
