@@ -34,7 +34,7 @@ import yaml
 
 from fbcc_ros.bag.reader import Bag
 from fbcc_ros.core.arrays import FloatArray
-from fbcc_ros.core.control.phase import Phase
+from fbcc_ros.core.control.phase import WAITING
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.files import read_text
 from fbcc_ros.pipeline import compensation, controller, kinematics
@@ -158,7 +158,7 @@ def replay_offline(bag: Bag, given: dict[str, dict[str, Any]]) -> OfflineResult:
             if key not in flow.commands:
                 counts["dropped_by_controller"] += 1
                 continue
-        if ctrl.sup.phase == Phase.IDLE and not ctrl.sup.start(stamp)[0]:
+        if ctrl.sup.phase in WAITING and not ctrl.sup.start(stamp)[0]:
             # not armed (no recent features or wrench): counted, tried again on the next sample
             counts["start_refused"] = counts.get("start_refused", 0) + 1
             continue

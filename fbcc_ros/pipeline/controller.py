@@ -21,7 +21,7 @@ from fbcc_ros.core.compensation.wrench import response_from_wrench
 from fbcc_ros.core.contact.features import features_from_pose, pose_from_features
 from fbcc_ros.core.contact.segmentation import response_state
 from fbcc_ros.core.control.laws import make_law
-from fbcc_ros.core.control.phase import Phase
+from fbcc_ros.core.control.phase import WAITING
 from fbcc_ros.core.control.robust import RobustFbcc
 from fbcc_ros.core.control.supervisor import SafetyLimits, Supervisor
 from fbcc_ros.core.errors import ConfigError
@@ -115,7 +115,7 @@ class ControllerStage:
     @property
     def ready_to_start(self) -> bool:
         """With ``auto_start``: idle, features have come, and nothing was started yet."""
-        return (self.auto_start and self.sup.phase == Phase.IDLE and self.sup.command is None
+        return (self.auto_start and self.sup.phase in WAITING and self.sup.command is None
                 and self.sup.features is not None)  # fmt: skip
 
     def features(self, now: float, peg_in_hole: pin.SE3 | None) -> pin.SE3 | None:

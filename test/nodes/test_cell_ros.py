@@ -170,7 +170,7 @@ def test_abort_through_the_service_holds_the_command() -> None:
         assert run.call(run.observer.abort_client).success
         reset = run.call(run.observer.reset_client)
         assert reset.success and reset.message.startswith("aborted acknowledged"), reset.message
-        run.spin_until(lambda: run.observer.phase == "idle", 2.0, "no idle phase after reset")
+        run.spin_until(lambda: run.observer.phase == "armed", 2.0, "not armed after the reset")
 
 
 @REALTIME

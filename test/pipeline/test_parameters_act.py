@@ -168,7 +168,7 @@ def _controller(values: dict[str, Any]) -> list[Any]:
                 out.append(None if retract is None else retract.homogeneous)
         elif m.topic == "/ft_sensor/compensated":
             stamp, _, wrench = wrench_from_cdr(m.data)
-            if stage.ready_to_start or (stage.sup.phase == "idle" and stamp >= start):
+            if stage.ready_to_start or (stage.sup.phase in ("idle", "armed") and stamp >= start):
                 out.append(stage.sup.start(stamp))
             command = stage.wrench(stamp, stamp, wrench)
             if command is not None:

@@ -1,7 +1,8 @@
 """The controller's phases and safety: what the fbcc_controller node runs, without ROS.
 
-Phases (:class:`~fbcc_ros.core.control.phase.Phase`): ``idle`` (nothing commanded) →
-``start()`` → ``inserting`` → ``inserted`` (the depth ramp reached L; the law keeps adjusting);
+Phases (:class:`~fbcc_ros.core.control.phase.Phase`): ``idle`` (nothing commanded) ⇄ ``armed``
+(a ``start()`` would be accepted, :meth:`Supervisor.not_armed`) → ``start()`` → ``inserting`` →
+``inserted`` (the depth ramp reached L; the law keeps adjusting);
 ``force_limit`` (Algorithm 1's stop), ``aborted`` (``abort()``) and ``fault`` end an insertion
 and hold; ``reset()`` acknowledges the end (``idle``), and a ``start()`` after a
 fault or a force limit is refused until it has. A ``start()`` also needs recent features and a
@@ -37,7 +38,7 @@ from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.control.laws import Law
-from fbcc_ros.core.control.phase import ACTIVE, NEEDS_RESET, Phase
+from fbcc_ros.core.control.phase import ACTIVE, NEEDS_RESET, WAITING, Phase
 from fbcc_ros.core.errors import ConfigError
 
 #: The most control periods one sample may stand for (a longer gap is stepped as this many).
@@ -113,7 +114,7 @@ class Supervisor:
     def fault(self, reason: str, now: float) -> None:
         """Stop, saying why, and hold where the arm is (:meth:`_hold`). A fault while already
         holding stops a retract where the arm is and is added to the reason."""
-        if self.active or self.phase == Phase.IDLE:
+        if self.active or self.phase in WAITING:
             self.phase, self.reason = Phase.FAULT, reason
             self._hold(now)
         elif self.phase in NEEDS_RESET and reason not in self.reason:
@@ -140,6 +141,7 @@ class Supervisor:
             self.fault(f"non-finite or malformed features {x.tolist()}", now)
             return None
         self.features, self._t_features = x, now
+        self._arm(now)
         if self._retract_to is None or self.phase not in NEEDS_RESET or self.command is None:
             return None
         if np.abs(self._retract_to - self.command).max() < 1e-12:
@@ -160,6 +162,11 @@ class Supervisor:
             return ("no recent compensated wrench: is the compensation running, tared and its "
                     "wrench guard armed?")
         return ""
+
+    def _arm(self, now: float) -> None:
+        """``idle`` ⇄ ``armed`` as the inputs come and go."""
+        if self.phase in WAITING:
+            self.phase = Phase.IDLE if self.not_armed(now) else Phase.ARMED
 
     def start(self, now: float) -> tuple[bool, str]:
         """Begin an insertion from the current features, if armed (:meth:`not_armed`)."""
@@ -182,7 +189,8 @@ class Supervisor:
         ended, why = self.phase, self.reason
         self.phase, self.reason = Phase.IDLE, ""
         self._retract_to = None
-        return True, f"{ended} acknowledged{f' ({why})' if why else ''}; idle"
+        self._arm(max(self._t_ran, self._t_wrench, self._t_features))  # the latest time seen
+        return True, f"{ended} acknowledged{f' ({why})' if why else ''}; {self.phase}"
 
     def abort(self, reason: str = "abort requested") -> tuple[bool, str]:
         if not self.active:
@@ -198,6 +206,7 @@ class Supervisor:
         timeout from now before they are judged, and the stall is counted.
         """
         ran, self._t_ran = self._t_ran, now
+        self._arm(now)
         if self.active and now - ran > self.limits.timeout:
             self.stalls += 1
             self._t_wrench = max(self._t_wrench, now)
@@ -235,6 +244,7 @@ class Supervisor:
         if not self.active:
             if valid:  # a start needs a recent one
                 self._t_wrench = now
+                self._arm(now)
             return self.command
         if not valid:
             self.fault(f"non-finite or malformed response {w.tolist()}", now)

@@ -38,15 +38,18 @@ def _start(sup: Supervisor, now: float) -> tuple[bool, str]:
     return sup.start(now)
 
 
-def test_idle_until_started_then_inserting() -> None:
+def test_idle_until_armed_then_started_then_inserting() -> None:
+    """``idle`` until both inputs are recent (``armed``), back to ``idle`` when one goes stale;
+    a start is refused with what is missing, accepted when armed."""
     sup = _supervisor()
     assert sup.start(0.0) == (False, "no recent features: is the kinematics node running?")
     sup.on_features(0.0, np.zeros(5))
     ok, why = sup.start(0.0)
-    assert not ok and why.startswith("no recent compensated wrench")
-    assert sup.on_response(0.0, np.zeros(5)) is None and sup.phase == "idle"
+    assert not ok and why.startswith("no recent compensated wrench") and sup.phase == "idle"
+    assert sup.on_response(0.0, np.zeros(5)) is None and sup.phase == "armed"
     sup.on_features(0.051, np.zeros(5))
-    ok, why = sup.start(0.051)  # that wrench is stale by then
+    assert sup.phase == "idle"  # that wrench is stale by then
+    ok, why = sup.start(0.051)
     assert not ok and why.startswith("no recent compensated wrench")
     assert sup.on_response(0.052, np.zeros(5)) is None
     assert sup.not_armed(0.052) == ""  # armed: a start now is accepted
@@ -184,7 +187,8 @@ def test_a_fault_or_a_force_limit_must_be_reset_before_a_new_start(end: str) -> 
     ok, why = _start(sup, 0.003)
     assert not ok and why.startswith(f"{end} (") and "acknowledge it with reset first" in why
     ok, said = sup.reset()
-    assert ok and said.startswith(f"{end} acknowledged") and sup.phase == "idle"
+    assert ok and said.startswith(f"{end} acknowledged") and sup.phase == "armed"
+    assert said.endswith("; armed")  # the inputs are recent: a start would be accepted
     # still held where the arm was measured when it ended (here the start's features)
     np.testing.assert_array_equal(sup.on_response(0.004, np.ones(5)), np.zeros(5))
     sup.on_features(0.004, np.full(5, 1e-5))
@@ -300,7 +304,7 @@ def test_mock_cell_loop_agrees_with_the_simulator() -> None:
         out = comp.reading(t, "ft_sensor", sample.raw)
         if out is None:
             continue  # taring
-        if sup.phase == "idle":
+        if sup.phase in ("idle", "armed"):
             _start(sup, t)
         command = sup.on_response(t, out.response)
         q = cell.believed.tcp_solution(command, q, DT).q
