@@ -113,12 +113,14 @@ class Supervisor:
 
     def fault(self, reason: str, now: float) -> None:
         """Stop, saying why, and hold where the arm is (:meth:`_hold`). A fault while already
-        holding stops a retract where the arm is and is added to the reason."""
+        holding stops a retract where the arm is; the first such is added to the reason (a
+        repeating one, an IK failure each period, would grow it without end)."""
         if self.active or self.phase in WAITING:
             self.phase, self.reason = Phase.FAULT, reason
             self._hold(now)
-        elif self.phase in NEEDS_RESET and reason not in self.reason:
-            self.reason = f"{self.reason}; then {reason}"
+        elif self.phase in NEEDS_RESET:
+            if "; then " not in self.reason:
+                self.reason = f"{self.reason}; then {reason}"
             if self._retract_to is not None:
                 self._retract_to = None
                 self._hold(now, retract=False)
