@@ -1,6 +1,7 @@
 """dynamic_compensation node (Fig. 7): raw WrenchStamped → the compensated wrench in {H}.
 
-Subscribes ``ft_sensor/raw`` (WrenchStamped in the sensor frame) and, for a wrist sensor,
+Subscribes ``ft_sensor/raw`` (WrenchStamped in the sensor frame; reliable, or best-effort with
+``wrench_qos: best_effort`` for a driver publishing sensor-data QoS) and, for a wrist sensor,
 ``joint_states``; with ``virtual_sensor`` it takes the arm's external joint torques from the
 ``effort`` of ``external_joint_torques`` (JointState) instead of a sensor. Publishes
 ``ft_sensor/compensated``: the wrench the peg exerts on the hole, frame ``hole``, moments about
@@ -47,10 +48,11 @@ class DynamicCompensationNode(Node):
         sub = self.create_subscription  # raw: CDR bytes, decoded by fbcc_ros.ros.convert
         if self.stage.robot is not None:
             sub(JointState, topics.JOINT_STATES, self.on_joints, 10, raw=True)
+        qos = topics.input_qos(values["wrench_qos"])  # a transport setting: the stage has none
         if self.stage.virtual:
-            sub(JointState, "external_joint_torques", self.on_torques, 10, raw=True)
+            sub(JointState, "external_joint_torques", self.on_torques, qos, raw=True)
         else:
-            sub(WrenchStamped, topics.RAW_WRENCH, self.on_raw, 10, raw=True)
+            sub(WrenchStamped, topics.RAW_WRENCH, self.on_raw, qos, raw=True)
         counts = self.stage.comp.counts
         rejected = tuple(k for k in counts if k not in ("accepted", "taring"))
         publish_diagnostics(self, counter_report(lambda: self.stage.comp.counts, rejected,

@@ -44,6 +44,10 @@ TABLE = (
           read_only=False),
     Param("deadband", [0.0, 0.0], "output dead band [force, moment]", "N, N m",
           read_only=False),
+    Param("wrench_qos", "reliable", "reliability of the raw wrench (or external torques) "
+          "subscription: best_effort for a driver publishing sensor-data QoS, which a reliable "
+          "subscription never hears (a best-effort one hears both)",
+          choices=("reliable", "best_effort")),
     Param("virtual_sensor", False, "wrench from external joint torques instead of a sensor"),
     Param("virtual_damping", 0.01, "damping of the virtual sensor's pseudo-inverse", "", 0.0,
           10.0),

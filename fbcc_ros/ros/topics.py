@@ -1,6 +1,6 @@
 """Topic and service names, relative so that a namespace or a remap moves a whole cell."""
 
-from rclpy.qos import DurabilityPolicy, QoSProfile
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 JOINT_STATES = "joint_states"
 JOINT_COMMAND = "joint_command"
@@ -37,3 +37,11 @@ TRUTH_FIELDS = ("stamp", "dx", "dy", "l", "theta_x", "theta_y", "Fx", "Fy", "Fz"
 #: The phase and the bias are latched (transient local): a late subscriber still gets the
 #: current one.
 PHASE_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def input_qos(reliability: str, depth: int = 10) -> QoSProfile:
+    """A sensor input's subscription QoS: ``reliable`` (ours and most ROS publishers), or
+    ``best_effort`` for a driver publishing sensor-data QoS, which a reliable subscription never
+    matches (a best-effort one hears both)."""
+    policy = {"reliable": ReliabilityPolicy.RELIABLE, "best_effort": ReliabilityPolicy.BEST_EFFORT}
+    return QoSProfile(depth=depth, reliability=policy[reliability])

@@ -127,9 +127,11 @@ def _built(cls: Any, values: dict[str, Any]) -> Any:
         )
         try:
             # the node's own attributes (rclpy's are private, and _parameters would hold the
-            # very values under test), and the topics it uses
+            # very values under test), and the topics it uses (a subscription with its
+            # reliability: the QoS it is given is the node's own)
             built = {k: v for k, v in vars(node).items() if not k.startswith("_")}
-            entities = [e.topic_name for e in (*node.publishers, *node.subscriptions)]
+            entities = [e.topic_name for e in node.publishers] + [
+                f"{e.topic_name} {e.qos_profile.reliability.name}" for e in node.subscriptions]
             return fingerprint({"node": built, "entities": sorted(entities)})
         finally:
             node.destroy_node()
