@@ -37,6 +37,7 @@ from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.control.phase import WAITING
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.files import read_text
+from fbcc_ros.core.param_files import node_of
 from fbcc_ros.pipeline import compensation, controller, kinematics
 from fbcc_ros.pipeline.parameters import flatten, resolve
 from fbcc_ros.ros.cdr import decode_wrench
@@ -102,7 +103,7 @@ def node_parameters(bag_path: Path, files: Sequence[Path] = ()) -> dict[str, dic
             params = (body or {}).get("ros__parameters", {}) if isinstance(body, dict) else None
             if not isinstance(params, dict):
                 raise InputError(f"{file}: {node}", body, "ros__parameters: {name: value}")
-            given.setdefault(str(node).lstrip("/"), {}).update(flatten(params))
+            given.setdefault(node_of(node), {}).update(flatten(params))
     return given
 
 

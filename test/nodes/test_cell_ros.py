@@ -349,3 +349,40 @@ def test_the_latency_probe_stops_watching_what_it_does_not_need() -> None:
         observer.destroy_node()
     finally:
         rclpy.try_shutdown(context=context)
+
+
+def test_a_node_under_a_namespace_reads_the_shipped_parameter_file(tmp_path: Path) -> None:
+    """``ros2 run fbcc_ros kinematics --ros-args -r __ns:=/lbr --params-file
+    config/kinematics.yaml``: the file's ``/**/kinematics`` key reaches the node under /lbr; the
+    same file with a bare ``kinematics`` key is ignored there (the node runs on its default)."""
+    import rclpy
+    import rclpy.executors
+    import yaml
+    from rcl_interfaces.srv import GetParameters
+
+    shipped = yaml.safe_load((ROOT / "config" / "kinematics.yaml").read_text())
+    body = shipped["/**/kinematics"]
+    body["ros__parameters"]["rate_hz"] = 250.0
+    for key, expected in (("/**/kinematics", 250.0), ("kinematics", 1000.0)):
+        (tmp_path / "k.yaml").write_text(yaml.safe_dump({key: body}))
+        cmd = [sys.executable, "-m", "fbcc_ros.nodes.kinematics", "--ros-args", "-r",
+               "__ns:=/lbr", "--params-file", str(tmp_path / "k.yaml")]  # fmt: skip
+        proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.STDOUT)  # fmt: skip
+        context = rclpy.Context()
+        rclpy.init(context=context)
+        node = rclpy.create_node("asker", context=context)
+        try:
+            client = node.create_client(GetParameters, "/lbr/kinematics/get_parameters")
+            assert client.wait_for_service(timeout_sec=15.0), "no /lbr/kinematics"
+            future = client.call_async(GetParameters.Request(names=["rate_hz"]))
+            executor = rclpy.executors.SingleThreadedExecutor(context=context)
+            executor.add_node(node)
+            executor.spin_until_future_complete(future, timeout_sec=10.0)
+            assert future.result().values[0].double_value == expected, key
+        finally:
+            node.destroy_node()
+            rclpy.try_shutdown(context=context)
+            context.destroy()
+            proc.send_signal(signal.SIGINT)
+            proc.wait(timeout=10)

@@ -19,6 +19,7 @@ import rclpy
 import yaml
 from rclpy.parameter import Parameter
 
+from fbcc_ros.core.param_files import node_section
 from fbcc_ros.nodes.dynamic_compensation import TABLE as COMPENSATION
 from fbcc_ros.nodes.dynamic_compensation import DynamicCompensationNode
 from fbcc_ros.nodes.fbcc_controller import TABLE as CONTROLLER
@@ -59,7 +60,9 @@ TOGETHER: dict[str, dict[str, Any]] = {
 
 def _yaml(node: str) -> dict[str, Any]:
     text = (ROOT / "config" / f"{node}.yaml").read_text()
-    return flatten(yaml.safe_load(text)[node]["ros__parameters"])
+    doc = yaml.safe_load(text)
+    assert list(doc) == [f"/**/{node}"]  # read under any namespace
+    return flatten(node_section(doc, node) or {})
 
 
 def _changed(p: Param, value: Any) -> Any:

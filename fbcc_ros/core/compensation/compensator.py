@@ -54,6 +54,7 @@ from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.files import read_text
 from fbcc_ros.core.filters import LowPass, dead_band
 from fbcc_ros.core.kinematics.robot import RobotModel
+from fbcc_ros.core.param_files import node_section
 
 Placement = Literal["under_hole", "wrist"]
 PLACEMENTS = ("under_hole", "wrist")
@@ -369,7 +370,7 @@ def calibration_yaml(fit: Calibration, comment: str) -> str:
     """The parameter file the ``dynamic_compensation`` node loads, with the fit's quality in a
     comment header."""
     params = {
-        NODE_NAME: {
+        f"/**/{NODE_NAME}": {  # any namespace: the node under /lbr reads it too
             "ros__parameters": {
                 "payload": {
                     "mass": float(fit.payload.mass),
@@ -389,7 +390,9 @@ def load_calibration(path: str | Path) -> tuple[Payload, FloatArray]:
     with the same keys)."""
     try:
         data: Any = yaml.safe_load(read_text(path, "calibration file"))
-        params = data[NODE_NAME]["ros__parameters"]
+        params = node_section(data, NODE_NAME)
+        if params is None:
+            raise KeyError(NODE_NAME)
         payload = params["payload"]
         inertia = np.asarray(payload.get("inertia", [0.0] * 9), dtype=float).reshape(3, 3)
         return (
