@@ -179,8 +179,9 @@ class CellRun:
             raise FbccError(f"cannot restart {name}: not a node of this process "
                             f"({sorted(self.nodes)})")  # fmt: skip
         if parameters:
-            spec = NodeSpec(spec.name, spec.factory, {**spec.parameters, **parameters})
-            self.specs[self.specs.index(next(s for s in self.specs if s.name == name))] = spec
+            index = self.specs.index(spec)
+            spec = self.specs[index] = NodeSpec(name, spec.factory,
+                                                {**spec.parameters, **parameters})  # fmt: skip
         old = self.nodes.pop(name)
         for up_name, outlet, down_name, _ in CHAIN:  # nothing calls into the dead node
             if down_name == name and hasattr(self.nodes.get(up_name), outlet):
@@ -240,13 +241,14 @@ class CellRun:
                 self.check_alive()
                 every_second(elapsed)
 
-    def call(self, client: Any, timeout: float = 10.0) -> Any:
-        """A std_srvs/Trigger call over DDS; returns the response."""
+    def call(self, client: Any, timeout: float = 10.0, request: Any = None) -> Any:
+        """A service call over DDS (``request``; a std_srvs/Trigger one by default); returns
+        the response."""
         from std_srvs.srv import Trigger
 
         name = client.srv_name
         self.spin_until(client.service_is_ready, timeout, f"no service {name}")
-        future = client.call_async(Trigger.Request())
+        future = client.call_async(Trigger.Request() if request is None else request)
         self.spin_until(future.done, timeout, f"no answer from {name}")
         return future.result()
 

@@ -195,11 +195,8 @@ def set_parameter(run: Any, node: str, name: str, value: Any) -> tuple[bool, str
 
     client = run.observer.create_client(SetParameters, f"/{node}/set_parameters")
     try:
-        run.spin_until(client.service_is_ready, 5.0, f"no parameter service on {node}")
         message = Parameter(name, value=value).to_parameter_msg()
-        future = client.call_async(SetParameters.Request(parameters=[message]))
-        run.spin_until(future.done, 5.0, f"no answer from {node}/set_parameters")
-        result = future.result().results[0]
+        result = run.call(client, 5.0, SetParameters.Request(parameters=[message])).results[0]
         return bool(result.successful), result.reason
     finally:
         run.observer.destroy_client(client)
@@ -324,8 +321,9 @@ def run_drill(run: Any, name: str, duration: float, bag: Path | None,
             run.spin_until(lambda: observer.phase == Phase.INSERTING, 2.0, "no phase inserting")
     run.spin_for(duration, clock)  # a resumed insertion has its whole time
     controller = run.nodes.get("fbcc_controller")
-    if controller is not None and controller.stage.input_rate.mismatch():
-        watch.reports.append(controller.stage.input_rate.mismatch())
+    mismatch = controller.stage.input_rate.mismatch() if controller is not None else ""
+    if mismatch:
+        watch.reports.append(mismatch)
     log = run.log_dir / "fbcc_record.log"  # the recorder's own process
     if "fbcc_record" in run.procs and log.exists():
         said = log.read_text(errors="replace").splitlines()

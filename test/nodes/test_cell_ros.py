@@ -283,6 +283,12 @@ def test_bringup_bad_input_exits_two(capsys) -> None:
     assert "no/such/scenario.yaml" in capsys.readouterr().err
     assert bringup_main([str(SCENARIO), "--wait-for-recorder"]) == 2  # its own is waited for
     assert "--wait-for-recorder" in capsys.readouterr().err
+    for args, allowed in ((["--fault", "nope"], "one of ['moment-spike'"),
+                          (["--fault", "stale-wrench", "--processes"], "without --processes"),
+                          (["--fault", "disk-full", "--no-record"], "a recorded run")):
+        assert bringup_main([str(SCENARIO), *args]) == 2
+        err = capsys.readouterr().err
+        assert f"--fault={args[1]!r} is not allowed" in err and allowed in err, err
 
 
 @pytest.mark.parametrize("node", NODES)
