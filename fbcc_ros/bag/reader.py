@@ -128,7 +128,12 @@ def bag_information(folder: Path) -> Any:
 def metadata_counts(folder: Path) -> dict[str, int] | None:
     """Messages per topic as the folder's metadata.yaml counts them; None without a readable
     one."""
-    info = bag_information(folder)
+    return counts_of(bag_information(folder))
+
+
+def counts_of(info: Any) -> dict[str, int] | None:
+    """Messages per topic as a ``rosbag2_bagfile_information`` counts them; None if it is not
+    one."""
     try:
         return {t["topic_metadata"]["name"]: t["message_count"]
                 for t in info["topics_with_message_count"]}  # fmt: skip

@@ -30,8 +30,8 @@ from fbcc_ros.bag.reader import (
     WholeRecords,
     bag_information,
     channel_of,
+    counts_of,
     mcap_file,
-    metadata_counts,
 )
 from fbcc_ros.bag.writer import ROSBAG2_RECORD, BagWriter, check_new_folder
 
@@ -82,7 +82,7 @@ def is_complete(file: Path) -> bool:
     info = bag_information(file.parent)
     try:
         return bool(info["relative_file_paths"] == [file.name]
-                    and metadata_counts(file.parent) == in_file
+                    and counts_of(info) == in_file
                     and info["message_count"] == stats.message_count)  # fmt: skip
     except (KeyError, TypeError):
         return False  # missing or not rosbag2's
@@ -126,7 +126,7 @@ def recover(bag: Path, out: Path | None = None) -> Recovery | None:
     return Recovery(
         source=source,
         bag=writer.folder,
-        counts={name: t["count"] for name, t in writer.topics.items()},
+        counts=writer.counts(),
         start_ns=writer.start_ns,
         end_ns=writer.end_ns,
         kept_bytes=records.end,

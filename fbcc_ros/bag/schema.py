@@ -138,7 +138,7 @@ def offered_qos(text: str, jazzy: bool = True) -> list[dict[str, Any]]:
     """A channel's ``offered_qos_profiles`` (rosbag2's YAML list) → its profiles, a Foxy-era
     infinite duration read as INFINITE; with ``jazzy=False`` the durations as written (what
     metadata.yaml repeats: rosbags finds a topic's channel by its QoS as parsed, unchanged).
-    None if absent or garbled."""
+    none if absent or garbled."""
     try:
         profiles = yaml.safe_load(text or "[]")
     except yaml.YAMLError:

@@ -54,8 +54,7 @@ class BagWriter:
         self._file = self.path.open("wb")
         self._mcap = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
         self._mcap.start(profile="ros2", library="fbcc_ros")
-        self._file.flush()
-        self._flushed = self._file.tell()  # the header: a later change of size is a chunk
+        self._flush()  # the header: a later change of size is a chunk
         self._schemas: dict[str, int] = {}
         #: name -> type, serialization format, offered QoS, type hash and message count
         self.topics: dict[str, dict[str, Any]] = {}
@@ -115,25 +114,35 @@ class BagWriter:
             return  # after a failed write nothing more goes in: the file ends where it failed
         t = time.time_ns() if log_time_ns is None else log_time_ns
         sent = t if publish_time_ns is None else publish_time_ns
-        with self._writing():
+        try:  # not _writing(): a generator per message on the recorder's hot path
             self._mcap.add_message(self._channels[topic], log_time=t, data=data,
                                    publish_time=sent)  # fmt: skip
             self.topics[topic]["count"] += 1
             self.start_ns = t if self.start_ns is None else min(self.start_ns, t)
             self.end_ns = max(self.end_ns, t)
             if self._file.tell() != self._flushed:  # a chunk, this message last: to disk
-                self._file.flush()
-                self._flushed = self._file.tell()
-                self._on_disk = {name: m["count"] for name, m in self.topics.items()}
+                self._flush()
+                self._on_disk = self.counts()
                 self._end_on_disk = self.end_ns
                 self._write_metadata(self._on_disk, self._end_on_disk)  # after the chunk
+        except OSError as exc:
+            self.fail(exc)
+            raise
+
+    def counts(self) -> dict[str, int]:
+        """Messages written per topic."""
+        return {name: t["count"] for name, t in self.topics.items()}
+
+    def _flush(self) -> None:
+        """To disk, and remembered as flushed."""
+        self._file.flush()
+        self._flushed = self._file.tell()
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
         """An mcap Metadata record (a name and a map of strings), on disk at once."""
         with self._writing():
             self._mcap.add_metadata(name, data)
-            self._file.flush()
-            self._flushed = self._file.tell()
+            self._flush()
 
     def add_attachment(self, attachment: Attachment) -> None:
         """An mcap Attachment record (a named file), on disk at once."""
@@ -141,8 +150,7 @@ class BagWriter:
             self._mcap.add_attachment(attachment.create_time, attachment.log_time,
                                       attachment.name, attachment.media_type,
                                       attachment.data)  # fmt: skip
-            self._file.flush()
-            self._flushed = self._file.tell()
+            self._flush()
 
     @contextmanager
     def _writing(self) -> Iterator[None]:
@@ -186,11 +194,11 @@ class BagWriter:
             return
         self.closed = True
         if self.failed is None:
-            serialized = _dump(self._info())
-            self._mcap.add_metadata(ROSBAG2_RECORD, {SERIALIZED_METADATA: serialized})
+            info = self._info()  # the record and metadata.yaml: the same
+            self._mcap.add_metadata(ROSBAG2_RECORD, {SERIALIZED_METADATA: _dump(info)})
             self._mcap.finish()
             self._file.close()
-            self._write_metadata()
+            self._write_info(info)
             return
         for step in (self._file.close, self._cut_back, self._write_metadata):
             try:
@@ -202,7 +210,7 @@ class BagWriter:
               ) -> dict[str, Any]:  # fmt: skip
         """The bag's metadata (rosbag2's BagMetadata, version 9) with ``counts`` per topic up
         to ``end_ns`` (default: all written)."""
-        counts = counts if counts is not None else {n: t["count"] for n, t in self.topics.items()}
+        counts = counts if counts is not None else self.counts()
         end = self.end_ns if end_ns is None else end_ns
         start = self.start_ns or 0
         duration = max(end - start, 0) if self.start_ns is not None else 0
@@ -243,9 +251,13 @@ class BagWriter:
 
     def _write_metadata(self, counts: dict[str, int] | None = None, end_ns: int | None = None
                         ) -> None:  # fmt: skip
-        """metadata.yaml of :meth:`_info`, replaced atomically (a reader never sees half)."""
+        """metadata.yaml of :meth:`_info`."""
+        self._write_info(self._info(counts, end_ns))
+
+    def _write_info(self, info: dict[str, Any]) -> None:
+        """metadata.yaml holding ``info``, replaced atomically (a reader never sees half)."""
         tmp = self.folder / "metadata.yaml.tmp"
-        tmp.write_text(_dump({"rosbag2_bagfile_information": self._info(counts, end_ns)}))
+        tmp.write_text(_dump({"rosbag2_bagfile_information": info}))
         tmp.replace(self.folder / "metadata.yaml")
 
     def __enter__(self) -> BagWriter:

@@ -63,7 +63,7 @@ class FbccRecordNode(Node):
         self.discover()
 
     def counts(self) -> dict[str, int]:
-        return {name: t["count"] for name, t in self.bag.topics.items()}
+        return self.bag.counts()
 
     def discover(self) -> None:
         for name in self.wanted:
