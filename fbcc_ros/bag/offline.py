@@ -40,7 +40,7 @@ from fbcc_ros.core.files import read_text
 from fbcc_ros.core.param_files import node_of
 from fbcc_ros.pipeline import compensation, controller, kinematics
 from fbcc_ros.pipeline.parameters import flatten, resolve
-from fbcc_ros.ros.cdr import decode_wrench
+from fbcc_ros.ros.cdr import decode_string, decode_wrench
 from fbcc_ros.ros.convert import joints_from_cdr, pose_from_cdr, stamp_to_seconds, wrench_from_cdr
 
 #: The file ``fbcc_bringup`` writes beside the bag's .mcap: each cell node's parameters.
@@ -109,17 +109,19 @@ def node_parameters(bag_path: Path, files: Sequence[Path] = ()) -> dict[str, dic
 
 class OfflineCell:
     """The compensation, kinematics and controller stages of one cell, configured as its nodes
-    (``given``: each node's parameters by name; the rest are the defaults)."""
+    (``given``: each node's parameters by name; the rest are the defaults; ``description``:
+    the URDF the session latched on robot_description, for ``robot: robot_description``)."""
 
-    def __init__(self, given: dict[str, dict[str, Any]]) -> None:
+    def __init__(self, given: dict[str, dict[str, Any]], description: str | None = None
+                 ) -> None:  # fmt: skip
         stages = (compensation, kinematics, controller)
         comp, kin, ctrl = (resolve(node, stage.TABLE, given.get(node, {}))
                            for node, stage in zip(NODES, stages, strict=True))  # fmt: skip
         if comp["virtual_sensor"]:
             raise ConfigError("virtual_sensor", True, "false: the offline replay reads the raw "
                               "wrench (ft_sensor/raw), not external joint torques")  # fmt: skip
-        self.compensation = compensation.CompensationStage(comp)
-        self.kinematics = kinematics.KinematicsStage(kin)
+        self.compensation = compensation.CompensationStage(comp, description)
+        self.kinematics = kinematics.KinematicsStage(kin, description)
         self.controller = controller.ControllerStage(ctrl)
         self.wrist = self.compensation.robot is not None
 
@@ -127,7 +129,8 @@ class OfflineCell:
 def replay_offline(bag: Bag, given: dict[str, dict[str, Any]]) -> OfflineResult:
     """Runs ``bag`` through an :class:`OfflineCell` configured by ``given``."""
     bag.require(NEEDED)
-    cell = OfflineCell(given)
+    latched = [decode_string(m.data) for m in bag.of("/robot_description")]
+    cell = OfflineCell(given, latched[-1] if latched else None)
     names = cell.kinematics.joint_names
     flow = _recorded_flow(bag, cell)
     counts = flow.counts

@@ -22,12 +22,13 @@ from std_msgs.msg import String
 
 from fbcc_ros.core.compensation.compensator import Compensated
 from fbcc_ros.core.errors import FbccError
-from fbcc_ros.pipeline.compensation import TABLE, CompensationStage
+from fbcc_ros.pipeline.compensation import TABLE, CompensationStage, needs_robot
 from fbcc_ros.ros import topics
 from fbcc_ros.ros.convert import efforts_from_cdr, joints_from_cdr, wrench_from_cdr, wrench_to_cdr
 from fbcc_ros.ros.diagnostics import counter_report, publish_diagnostics
 from fbcc_ros.ros.outlet import Outlet
 from fbcc_ros.ros.params import declare, run
+from fbcc_ros.ros.robot_description import description_for
 
 __all__ = ["TABLE", "DynamicCompensationNode"]
 
@@ -36,7 +37,8 @@ class DynamicCompensationNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("dynamic_compensation", **kwargs)
         values = declare(self, TABLE, lambda v: self.stage.apply(v))
-        self.stage = CompensationStage(values)
+        self.stage = CompensationStage(
+            values, description_for(self, values) if needs_robot(values) else None)
         self._said: set[str] = set()  # the kinds of rejection logged
         self.out_compensated = Outlet(
             self.create_publisher(WrenchStamped, topics.COMPENSATED_WRENCH, 10))

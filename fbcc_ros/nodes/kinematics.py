@@ -3,33 +3,50 @@
 Subscribes ``joint_states`` (JointState) and ``fbcc/command`` (PoseStamped: the command
 features as the peg's pose in {H}). Publishes ``fbcc/features`` (PoseStamped: the measured peg
 pose in {H}, from which the features, depth included, follow by ``features_from_pose``),
-``fbcc/tcp_command`` (PoseStamped: the peg's target in the base frame) and ``joint_command``
-(Float64MultiArray of positions in the robot's joint order).
+``fbcc/tcp_command`` (PoseStamped: the peg's target in the base frame) and the command on
+``command_topic`` (``joint_command`` by default), of ``command_type``:
 
-The feature and TCP solutions are :class:`~fbcc_ros.pipeline.kinematics.KinematicsStage`'s.
-Why Float64MultiArray: it is what ros2_controllers' forward position controller streams at the
-control rate; a JointTrajectory per 1 ms step would make a trajectory controller re-plan every
-period. An unreachable command (``IkError``) publishes nothing (the robot holds its last
-command) and says why on ``fbcc/kinematics_status``; the controller then faults.
+* ``positions``: Float64MultiArray of positions in the robot's joint order, what
+  ros2_controllers' forward position controller takes at the control rate (the default);
+* ``trajectory``: a JointTrajectory of one point, named joints, reached one period from now —
+  for a JointTrajectoryController, which re-plans on each (so prefer ``positions`` where the
+  stack has it);
+* ``pose``: the flange's PoseStamped in ``base_frame``, for a Cartesian position controller.
+
+The robot model is built in, a URDF file, or the URDF latched on ``robot_description``
+(:mod:`fbcc_ros.ros.robot_description`), from which the joint names follow. The feature and TCP
+solutions are :class:`~fbcc_ros.pipeline.kinematics.KinematicsStage`'s. An unreachable command
+(``IkError``) publishes nothing (the robot holds its last command) and says why on
+``fbcc/kinematics_status``; the controller then faults.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+from builtin_interfaces.msg import Duration
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from fbcc_ros.core.errors import FbccError
+from fbcc_ros.core.kinematics.cell import TcpCommand
 from fbcc_ros.core.kinematics.ik import IkError
 from fbcc_ros.pipeline.kinematics import TABLE, KinematicsStage
 from fbcc_ros.ros import topics
-from fbcc_ros.ros.convert import joints_from_cdr, pose_from_cdr, pose_to_cdr, positions_to_cdr
+from fbcc_ros.ros.convert import (
+    joints_from_cdr,
+    pose_from_cdr,
+    pose_to_cdr,
+    positions_to_cdr,
+    seconds_to_stamp,
+)
 from fbcc_ros.ros.diagnostics import counter_report, publish_diagnostics
 from fbcc_ros.ros.outlet import Outlet
 from fbcc_ros.ros.params import declare, run
+from fbcc_ros.ros.robot_description import description_for
 
 __all__ = ["TABLE", "KinematicsNode"]
 
@@ -37,11 +54,16 @@ __all__ = ["TABLE", "KinematicsNode"]
 class KinematicsNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("kinematics", **kwargs)
-        self.stage = KinematicsStage(declare(self, TABLE))
+        values = declare(self, TABLE)
+        self.stage = KinematicsStage(values, description_for(self, values))
         self.failures = 0
         self.out_features = Outlet(self.create_publisher(PoseStamped, topics.FEATURES, 10))
         self.pub_tcp = self.create_publisher(PoseStamped, topics.TCP_COMMAND, 10)
-        self.pub_joints = self.create_publisher(Float64MultiArray, topics.JOINT_COMMAND, 10)
+        self.command_type = values["command_type"]
+        self.base_frame = values["base_frame"] or self.stage.cell.robot.model.frames[1].name
+        kind = {"positions": Float64MultiArray, "trajectory": JointTrajectory,
+                "pose": PoseStamped}[self.command_type]  # fmt: skip
+        self.pub_joints = self.create_publisher(kind, values["command_topic"], 10)
         self.pub_status = self.create_publisher(String, topics.KINEMATICS_STATUS, 10)
         # raw: CDR bytes, decoded by fbcc_ros.ros.convert (no rclpy message objects at 1 kHz)
         self.create_subscription(JointState, topics.JOINT_STATES, self.on_joints, 10, raw=True)
@@ -74,9 +96,21 @@ class KinematicsNode(Node):
             return
         if solution is None:  # no joints measured yet
             return
-        self.pub_joints.publish(positions_to_cdr(solution.q))
+        self.pub_joints.publish(self._command(solution, stamp))
         if self.pub_tcp.get_subscription_count():  # an observer's topic: skip it unheard
-            self.pub_tcp.publish(pose_to_cdr(solution.peg_in_base, topics.BASE_FRAME, stamp))
+            self.pub_tcp.publish(pose_to_cdr(solution.peg_in_base, self.base_frame, stamp))
+
+    def _command(self, solution: TcpCommand, stamp: float) -> bytes | JointTrajectory:
+        """The command message of ``command_type`` (module doc)."""
+        if self.command_type == "positions":
+            return positions_to_cdr(solution.q)
+        if self.command_type == "pose":
+            return pose_to_cdr(solution.flange_in_base, self.base_frame, stamp)
+        sec, nanosec = seconds_to_stamp(self.stage.dt)
+        period = Duration(sec=sec, nanosec=nanosec)
+        point = JointTrajectoryPoint(positions=solution.q.tolist(), time_from_start=period)
+        # an unset header stamp: start now (a JointTrajectoryController's convention)
+        return JointTrajectory(joint_names=list(self.stage.joint_names), points=[point])
 
 
 def main() -> None:

@@ -21,21 +21,24 @@ from typing import Any
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64MultiArray, String
 
 from fbcc_ros.core.errors import FbccError
+from fbcc_ros.pipeline.kinematics import needs_description
 from fbcc_ros.pipeline.mock_cell import TABLE, MockStage
 from fbcc_ros.ros import topics
 from fbcc_ros.ros.cdr import encode_array
 from fbcc_ros.ros.convert import joints_to_cdr, positions_from_cdr, wrench_to_cdr
 from fbcc_ros.ros.diagnostics import counter_report, publish_diagnostics
 from fbcc_ros.ros.params import declare, run
+from fbcc_ros.ros.robot_description import DESCRIPTION_QOS, description_for
 
 
 class MockCellNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("mock_cell", **kwargs)
-        self.stage = MockStage(declare(self, TABLE, lambda v: self.stage.apply(v)))
+        values = declare(self, TABLE, lambda v: self.stage.apply(v))
+        self.stage = MockStage(values, description_for(self, values))
         self.cell, self.dt, self.frame = self.stage.cell, self.stage.dt, self.stage.frame
         self.names = self.cell.robot.joint_names
         self.counts = {"ticks": 0, "ticks_caught_up": 0, "ticks_skipped": 0,
@@ -46,7 +49,14 @@ class MockCellNode(Node):
         self.pub_truth = self.create_publisher(Float64MultiArray, topics.TRUTH, 100)
         # raw: CDR bytes, decoded by fbcc_ros.ros.convert (no rclpy message objects at 1 kHz)
         sub = self.create_subscription
-        sub(Float64MultiArray, topics.JOINT_COMMAND, self.on_command, 10, raw=True)
+        lbr = values["conventions"] == "lbr"
+        sub(Float64MultiArray, topics.LBR_COMMAND if lbr else topics.JOINT_COMMAND,
+            self.on_command, 10, raw=True)  # fmt: skip
+        # the stack's robot_state_publisher, played (not with a model from the topic)
+        if values["publish_description"] and not needs_description(values):
+            self.pub_description = self.create_publisher(
+                String, topics.ROBOT_DESCRIPTION, DESCRIPTION_QOS)
+            self.pub_description.publish(String(data=self.cell.robot.urdf_text))
         self.create_timer(self.dt, self.on_tick)
         bad = ("ticks_skipped", "commands_refused")
         publish_diagnostics(self, counter_report(lambda: self.counts, bad, "mock cell"))

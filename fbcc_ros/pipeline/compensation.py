@@ -24,7 +24,7 @@ from fbcc_ros.core.compensation.payload import Payload
 from fbcc_ros.core.compensation.wrench_guard import GuardLimits, WrenchGuard
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.kinematics.robot import pose
-from fbcc_ros.pipeline.kinematics import CELL, cell_from
+from fbcc_ros.pipeline.kinematics import CELL, hole_from, robot_from
 from fbcc_ros.pipeline.parameters import Param
 
 TABLE = (
@@ -70,6 +70,12 @@ TABLE = (
 )  # fmt: skip
 
 
+def needs_robot(values: dict[str, Any]) -> bool:
+    """Whether the stage needs the arm's model: a wrist sensor (where the sensor is), or the
+    hole placed under the peg at the arm's home."""
+    return values["placement"] == "wrist" or bool(values["hole_from_home"])
+
+
 def setup_from(values: dict[str, Any], hole: pin.SE3) -> SensorSetup:
     """The sensor set-up of :data:`TABLE`'s values, the hole at ``hole`` (``T_base_H``)."""
     inertia = np.asarray(values["payload.inertia"], dtype=float)
@@ -113,8 +119,9 @@ class CompensationStage:
             ``comp.guard.reason``); the stage passes nothing from then on.
     """
 
-    def __init__(self, values: dict[str, Any]) -> None:
-        robot, hole = cell_from(values)
+    def __init__(self, values: dict[str, Any], description: str | None = None) -> None:
+        robot = robot_from(values, description) if needs_robot(values) else None
+        hole = hole_from(values, robot)
         self.setup = setup_from(values, hole)
         self.virtual = bool(values["virtual_sensor"])
         if self.virtual and self.setup.placement != "wrist":

@@ -22,8 +22,9 @@ from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.control.supervisor import MAX_PERIODS
+from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.kinematics.cell import CellKinematics, TcpCommand, aligned_hole_at
-from fbcc_ros.core.kinematics.robot import RobotModel, Tool
+from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel, Tool
 from fbcc_ros.core.kinematics.robot import pose as pose_of
 from fbcc_ros.pipeline.parameters import Param
 
@@ -31,9 +32,21 @@ from fbcc_ros.pipeline.parameters import Param
 #: the controller steps one late sample by.
 MAX_REACH_PERIODS = MAX_PERIODS
 
+#: Where a model that is not built in comes from: the URDF the ``robot_description`` topic
+#: latches (robot_state_publisher, ros2_control), or the file ``urdf_file``.
+DESCRIPTION, URDF_FILE = "robot_description", "urdf_file"
+
 #: The arm, its tool and where the hole is: shared by the stages that need kinematics.
 CELL = (
-    Param("robot", "iiwa14", "robot model", choices=("iiwa14", "panda", "ur5")),
+    Param("robot", "iiwa14", f"robot model: a built-in one, '{DESCRIPTION}' (the URDF on that "
+          f"topic) or '{URDF_FILE}'", choices=(*ROBOTS, DESCRIPTION, URDF_FILE)),
+    Param("urdf_file", "", f"the URDF's path, with robot '{URDF_FILE}'"),
+    Param("description_timeout", 30.0, f"how long a node waits for {DESCRIPTION}, with robot "
+          f"'{DESCRIPTION}' (0: for ever)", "s", 0.0, 3600.0),
+    Param("flange_frame", "", "the link the tool is mounted on; empty: the built-in model's "
+          "flange, or the tip of the URDF's chain"),
+    Param("locked_joints", [], "joints of the URDF held at zero and left out (a gripper's "
+          "fingers): the others are the arm's, measured and commanded"),
     Param("tool_xyz", [0.0, 0.0, 0.10], "peg tip centre in the flange frame", "m"),
     Param("tool_rpy", [0.0, 0.0, 0.0], "peg frame orientation in the flange frame", "rad"),
     Param("hole_from_home", True,
@@ -42,20 +55,70 @@ CELL = (
     Param("hole_rpy", [0.0, 0.0, 0.0], "orientation of {H} in the base frame", "rad"),
 )  # fmt: skip
 
+#: What the node commands: joint positions (ros2_controllers' forward position controller,
+#: std_msgs/Float64MultiArray), a one-point trajectory reached in one period
+#: (trajectory_msgs/JointTrajectory, for a JointTrajectoryController) or the flange's pose in
+#: the base frame (geometry_msgs/PoseStamped, for a Cartesian controller).
+COMMAND_TYPES = ("positions", "trajectory", "pose")
+
 TABLE = (
     *CELL,
     Param("rate_hz", 1000.0, "control rate: the IK keeps each step within one period's joint "
           "velocity limits", "Hz", 1.0, 10000.0),
+    # transport settings (the node's, not the stage's)
+    Param("command_type", "positions", "what is commanded: joint positions "
+          "(Float64MultiArray), a one-period JointTrajectory, or the flange pose (PoseStamped "
+          "in base_frame)", choices=COMMAND_TYPES),
+    Param("command_topic", "joint_command", "where the command goes, e.g. "
+          "forward_position_controller/commands"),
+    Param("base_frame", "", "frame_id of poses in the base frame; empty: the model's root link"),
 )  # fmt: skip
 
 
-def cell_from(values: dict[str, Any]) -> tuple[RobotModel, pin.SE3]:
-    """The robot model and ``T_base_H`` from the CELL parameters."""
+def robot_from(values: dict[str, Any], description: str | None = None, lbr_name: str = ""
+               ) -> RobotModel:  # fmt: skip
+    """The robot model of the CELL parameters; ``description``: the URDF text the
+    ``robot_description`` topic gave, for ``robot: robot_description``; ``lbr_name``: a
+    built-in LBR under lbr_fri_ros2_stack's names (``RobotModel.from_name``)."""
     tool = Tool(tuple(values["tool_xyz"]), tuple(values["tool_rpy"]))  # type: ignore[arg-type]
-    robot = RobotModel.from_name(values["robot"], tool)
-    if values["hole_from_home"]:
-        return robot, aligned_hole_at(robot.peg_in_base(robot.home))
-    return robot, pose_of(values["hole_xyz"], values["hole_rpy"])
+    source, flange, locked = values["robot"], values["flange_frame"], values["locked_joints"]
+    if source in ROBOTS:
+        if locked:
+            raise ConfigError("locked_joints", locked, f"[] with the built-in model {source} "
+                              "(it locks its own)")  # fmt: skip
+        return RobotModel.from_name(source, tool, flange, lbr_name)
+    if source == URDF_FILE:
+        if not values["urdf_file"]:
+            raise ConfigError("urdf_file", "", f"the URDF's path, with robot '{URDF_FILE}'")
+        return RobotModel(values["urdf_file"], flange, tool, locked)
+    if description is None:
+        raise ConfigError("robot", source, f"a model from the {DESCRIPTION} topic, and none "
+                          "came (offline: the bag recorded none)")  # fmt: skip
+    return RobotModel(description, flange, tool, locked, name=DESCRIPTION)
+
+
+def needs_description(values: dict[str, Any]) -> bool:
+    """Whether the CELL parameters take the model from the ``robot_description`` topic."""
+    return bool(values["robot"] == DESCRIPTION)
+
+
+def hole_from(values: dict[str, Any], robot: RobotModel | None) -> pin.SE3:
+    """``T_base_H`` of the CELL parameters: under the peg at the built-in model's home (which
+    needs ``robot``), or ``hole_xyz``/``hole_rpy``."""
+    if not values["hole_from_home"]:
+        return pose_of(values["hole_xyz"], values["hole_rpy"])
+    if values["robot"] not in ROBOTS or robot is None:  # a user's model has no home of ours
+        raise ConfigError("hole_from_home", True, f"false with robot '{values['robot']}': "
+                          "the hole's pose in hole_xyz/hole_rpy (the built-in models only "
+                          "have a home to place it under)")  # fmt: skip
+    return aligned_hole_at(robot.peg_in_base(robot.home))
+
+
+def cell_from(values: dict[str, Any], description: str | None = None, lbr_name: str = ""
+              ) -> tuple[RobotModel, pin.SE3]:  # fmt: skip
+    """The robot model and ``T_base_H`` from the CELL parameters (:func:`robot_from`)."""
+    robot = robot_from(values, description, lbr_name)
+    return robot, hole_from(values, robot)
 
 
 class KinematicsStage:
@@ -67,8 +130,8 @@ class KinematicsStage:
         q: The last measured joints (None before the first), ``t_q`` their stamp [s].
     """
 
-    def __init__(self, values: dict[str, Any]) -> None:
-        robot, hole = cell_from(values)
+    def __init__(self, values: dict[str, Any], description: str | None = None) -> None:
+        robot, hole = cell_from(values, description)
         self.cell = CellKinematics(robot, hole, None)
         self.dt = 1.0 / values["rate_hz"]
         self.q: FloatArray | None = None

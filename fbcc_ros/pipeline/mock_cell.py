@@ -27,6 +27,11 @@ from fbcc_ros.pipeline.parameters import Param
 FIXTURE_MASS = 1.5
 FIXTURE_COM = (0.0, 0.0, 0.02)
 
+#: The robot stacks the mock can play (:mod:`fbcc_ros.core.kinematics.lbr_names`).
+CONVENTIONS = ("fbcc", "lbr")
+#: lbr_fri_ros2_stack's default robot_name: its joints are lbr_A1..A7.
+LBR_NAME = "lbr"
+
 TABLE = (
     Param("scenario", "config/scenarios/bringup_interference.yaml", "scenario YAML: the true "
           "deviation of the hole (initial), the sensor noise and bias, the robot lag"),
@@ -38,6 +43,12 @@ TABLE = (
     Param("sensor_frame", "ft_sensor", "frame_id of the raw readings"),
     Param("fixture_mass", FIXTURE_MASS, "mass of the hole fixture on the sensor", "kg", 0.0,
           100.0),
+    Param("conventions", "fbcc", "the robot stack the mock plays: fbcc (our names) or lbr "
+          "(lbr_fri_ros2_stack's joint and link names, its forward position controller's "
+          "command topic)", choices=CONVENTIONS),
+    # a transport setting (the node's)
+    Param("publish_description", True, "latch the model's URDF on robot_description, as the "
+          "robot stack's robot_state_publisher does"),
     Param("sensor_fault", "", "a sensor fault to rehearse, from the next reading on (empty: "
           "none; set it again to repeat it)", choices=("", *SENSOR_FAULTS), read_only=False),
     *CELL,
@@ -54,9 +65,10 @@ class MockStage:
         frame: The frame_id of the raw readings.
     """
 
-    def __init__(self, values: dict[str, Any]) -> None:
+    def __init__(self, values: dict[str, Any], description: str | None = None) -> None:
         sc = scenario_io.load(scenario_io.find(values["scenario"]))
-        robot, hole = cell_from(values)
+        lbr = LBR_NAME if values["conventions"] == "lbr" else ""
+        robot, hole = cell_from(values, description, lbr_name=lbr)
         seed = sc.seed if values["seed"] < 0 else values["seed"]
         geometry = None
         if values["draw_geometry"]:

@@ -18,7 +18,8 @@ from fbcc_ros.core.errors import ConfigError, closest
 
 @dataclasses.dataclass(frozen=True)
 class Param:
-    """One parameter: ``name`` as in the YAML (dots for nesting), its default, unit and meaning.
+    """One parameter: ``name`` as in the YAML (dots for nesting), its default, unit and meaning
+    (an empty list default: a list of strings).
 
     ``low``/``high`` bound a number; ``choices`` a string; ``read_only`` is False for the
     parameters a stage applies while it runs.
@@ -51,7 +52,9 @@ def _same_kind(value: Any, default: Any) -> bool:
     if isinstance(default, list):
         if not isinstance(value, list):
             return False
-        return not default or all(_same_kind(v, default[0]) for v in value)
+        if not default:  # an empty default: a list of strings (names)
+            return all(isinstance(v, str) for v in value)
+        return all(_same_kind(v, default[0]) for v in value)
     if isinstance(default, bool) or isinstance(value, bool):
         return isinstance(value, bool) and isinstance(default, bool)
     if isinstance(default, float):
@@ -61,7 +64,7 @@ def _same_kind(value: Any, default: Any) -> bool:
 
 def _kind(default: Any) -> str:
     if isinstance(default, list):
-        return f"a list of {_kind(default[0]).removeprefix('a ')}s" if default else "a list"
+        return f"a list of {_kind(default[0] if default else '').removeprefix('a ')}s"
     names = {bool: "a boolean (true or false)", int: "an integer", float: "a number",
              str: "a string"}  # fmt: skip
     return names.get(type(default), f"a {type(default).__name__}")

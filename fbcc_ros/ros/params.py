@@ -31,6 +31,9 @@ def descriptor(p: Param) -> ParameterDescriptor:
     choices = f" (one of {', '.join(p.choices)})" if p.choices else ""
     desc = ParameterDescriptor(description=f"{p.description}{unit}{choices}",
                                read_only=p.read_only)  # fmt: skip
+    # an empty list has no type for rclpy (it calls [] bytes, from YAML too): a list of names
+    # then, whatever rclpy calls it, checked by Param.check
+    desc.dynamic_typing = p.default == []
     if p.low is not None and p.high is not None:
         if isinstance(p.default, int) and not isinstance(p.default, bool):
             desc.integer_range = [
@@ -60,7 +63,9 @@ def declare(
     unknown_names(node.get_name(), table, given)
     values: dict[str, Any] = {}
     for p in table:
-        values[p.name] = plain(node.declare_parameter(p.name, p.default, descriptor(p)).value)
+        value = node.declare_parameter(p.name, p.default, descriptor(p)).value
+        # a YAML file's [] reaches rclpy as no value at all
+        values[p.name] = [] if value is None and p.default == [] else plain(value)
         p.check(values[p.name])
     by_name = {p.name: p for p in table}
 
@@ -88,8 +93,8 @@ def declare(
 
 def plain(value: Any) -> Any:
     """A parameter's value as the tables hold it: rclpy gives a number array set at runtime
-    as ``array.array`` (a list when declared from YAML)."""
-    return list(value) if isinstance(value, array.array) else value
+    as ``array.array`` (a list when declared from YAML), an empty list as ``bytes``."""
+    return list(value) if isinstance(value, (array.array, bytes)) else value
 
 
 def run(node_factory: Callable[[], Node]) -> None:

@@ -4,6 +4,10 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 JOINT_STATES = "joint_states"
 JOINT_COMMAND = "joint_command"
+#: lbr_fri_ros2_stack's joint position command (its forward_position_controller).
+LBR_COMMAND = "forward_position_controller/commands"
+#: The robot's URDF, latched (robot_state_publisher's, ros2_control's convention).
+ROBOT_DESCRIPTION = "robot_description"
 RAW_WRENCH = "ft_sensor/raw"
 COMPENSATED_WRENCH = "ft_sensor/compensated"
 #: The bias the compensation subtracts (sensor frame), latched: the configured one at start-up,
@@ -27,9 +31,8 @@ START = "fbcc/start"
 ABORT = "fbcc/abort"
 #: Acknowledges a fault, a force limit or an abort (std_srvs/Trigger): back to idle.
 RESET = "fbcc/reset"
-#: Frame ids on the wire.
+#: The frame_id of the fbcc topics in {H}.
 HOLE_FRAME = "hole"
-BASE_FRAME = "base"
 #: The mock cell's ground truth, one Float64MultiArray per tick (published only when heard):
 #: what the real cell cannot measure, for scoring a hardware-free run.
 TRUTH = "mock_cell/truth"

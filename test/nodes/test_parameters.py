@@ -19,6 +19,8 @@ import rclpy
 import yaml
 from rclpy.parameter import Parameter
 
+from fbcc_ros.core.kinematics.cell import aligned_hole_at
+from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel
 from fbcc_ros.core.param_files import node_section
 from fbcc_ros.nodes.dynamic_compensation import TABLE as COMPENSATION
 from fbcc_ros.nodes.dynamic_compensation import DynamicCompensationNode
@@ -46,16 +48,35 @@ CHANGED: dict[str, Any] = {
     "rate_hz": 500.0,  # 0 is the scenario's rate, and 0.1 Hz too slow for the gains
     "seed": 7,  # -1 is the scenario's seed
     "law": "admittance",  # the default scenario's law is fbcc
+    "urdf_file": str(ROBOTS["iiwa7"]().urdf),
+    "flange_frame": "iiwa_link_7",
+    "locked_joints": ["panda_finger_joint1", "panda_finger_joint2"],
 }
 #: Where the iiwa's home puts {H} (hole_from_home), nudged so that an explicit hole differs.
 HOLE = {"hole_xyz": [0.575, 0.0, 0.336], "hole_rpy": [0.0, 0.0, math.pi]}
 #: Parameters that matter only together with others (an explicit hole must be reachable).
+#: (``node.name`` before ``name``)
+URDF = {"robot": "urdf_file", "urdf_file": str(ROBOTS["iiwa14"]().urdf), "hole_from_home": False,
+        **HOLE}  # fmt: skip
+#: The Panda's URDF, fingers and all, over a hole it reaches from the middle of its ranges.
+_PANDA_HOLE = aligned_hole_at(RobotModel.from_name("panda").peg_in_base(ROBOTS["panda"]().home))
+PANDA = {**URDF, "urdf_file": str(ROBOTS["panda"]().urdf), "flange_frame": "panda_link8",
+         "hole_xyz": _PANDA_HOLE.translation.tolist(),
+         "hole_rpy": pin.rpy.matrixToRpy(_PANDA_HOLE.rotation).tolist()}  # fmt: skip
 TOGETHER: dict[str, dict[str, Any]] = {
     "hole_from_home": HOLE,
     "hole_xyz": {"hole_from_home": False, **HOLE},
     "hole_rpy": {"hole_from_home": False, **HOLE},
     "virtual_sensor": {"placement": "wrist"},
+    "urdf_file": URDF,
+    "locked_joints": PANDA,
+    "dynamic_compensation.urdf_file": {**URDF, "placement": "wrist"},
+    "dynamic_compensation.locked_joints": {**PANDA, "placement": "wrist"},
+    "dynamic_compensation.flange_frame": {"placement": "wrist"},
 }
+#: Acts only while a node waits for its robot_description, shown over DDS by
+#: test_robot_description.py::test_without_a_description_the_node_says_where_it_waited.
+AT_START_ONLY = ("description_timeout",)
 
 
 def _yaml(node: str) -> dict[str, Any]:
@@ -150,13 +171,15 @@ def test_every_yaml_key_is_declared_and_every_declared_one_is_in_the_yaml(node: 
     assert keys == declared  # the files hold the defaults (they are generated from the tables)
 
 
-CASES = [(node, p) for node, (_, table) in NODES.items() for p in table]
+CASES = [(node, p) for node, (_, table) in NODES.items() for p in table
+         if p.name not in AT_START_ONLY]  # fmt: skip
 
 
 @pytest.mark.parametrize(("node", "param"), CASES, ids=[f"{n}.{p.name}" for n, p in CASES])
 def test_every_parameter_reaches_the_core(node: str, param: Param) -> None:
     cls, _ = NODES[node]
-    base = {**_yaml(node), **TOGETHER.get(param.name, {})}
+    together = TOGETHER.get(f"{node}.{param.name}", TOGETHER.get(param.name, {}))
+    base = {**_yaml(node), **together}
     changed = {**base, param.name: _changed(param, base[param.name])}
     assert _built(cls, base) != _built(cls, changed), f"{param.name} changed nothing"
 

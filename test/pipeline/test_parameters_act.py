@@ -12,6 +12,7 @@ session stays within (the step clip): ``CHANGED`` picks a value past it.
 from __future__ import annotations
 
 import math
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +22,8 @@ import pytest
 
 from fbcc_ros.bag.reader import read_bag
 from fbcc_ros.core.errors import FbccError
+from fbcc_ros.core.kinematics.cell import aligned_hole_at
+from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel
 from fbcc_ros.pipeline import compensation, controller, kinematics, mock_cell
 from fbcc_ros.pipeline.parameters import Param, resolve
 from fbcc_ros.ros.convert import (
@@ -39,8 +42,27 @@ WRIST = {"placement": "wrist", "sensor_xyz": [0.0, 0.0, 0.03], "payload.mass": 0
          "payload.com": [0.0, 0.01, 0.05],
          "payload.inertia": [2e-3, 0, 0, 0, 2e-3, 0, 0, 0, 1e-3]}  # fmt: skip
 HOLE = {"hole_xyz": [0.575, 0.0, 0.336], "hole_rpy": [0.0, 0.0, math.pi]}
+#: A model from a URDF file: the iiwa14's, with the hole placed explicitly (no home of ours).
+URDF = {"robot": "urdf_file", "urdf_file": str(ROBOTS["iiwa14"]().urdf), "hole_from_home": False,
+        **HOLE}  # fmt: skip
+#: The same arm, its flange 2 mm further out: another URDF the recorded commands still fit.
+LONGER = Path(tempfile.mkdtemp(prefix="fbcc_urdf_")) / "iiwa14_longer.urdf"
+_FLANGE = '<child link="iiwa_flange"/>\n    <origin xyz="0 0 0.04'
+assert _FLANGE in Path(URDF["urdf_file"]).read_text()
+LONGER.write_text(Path(URDF["urdf_file"]).read_text().replace(f"{_FLANGE}5", f"{_FLANGE}7"))
+#: The Panda's URDF names its fingers' joints too.
+_PANDA_HOLE = aligned_hole_at(RobotModel.from_name("panda").peg_in_base(ROBOTS["panda"]().home))
+PANDA = {**URDF, "urdf_file": str(ROBOTS["panda"]().urdf), "flange_frame": "panda_link8",
+         "locked_joints": ["panda_finger_joint1", "panda_finger_joint2"],
+         "hole_xyz": _PANDA_HOLE.translation.tolist(),
+         "hole_rpy": pin.rpy.matrixToRpy(_PANDA_HOLE.rotation).tolist()}  # fmt: skip
 #: The mode in which a parameter acts, set for both runs (``node.name`` before ``name``).
 CONTEXT: dict[str, dict[str, Any]] = {
+    "urdf_file": URDF,
+    "locked_joints": PANDA,
+    "dynamic_compensation.urdf_file": {**WRIST, **URDF},
+    "dynamic_compensation.locked_joints": {**WRIST, **PANDA},
+    "dynamic_compensation.flange_frame": WRIST,
     "payload.com": {"payload.mass": 0.8},
     "payload.inertia": WRIST,
     "virtual_sensor": {**WRIST, "payload.mass": 0.0},
@@ -75,6 +97,9 @@ CHANGED: dict[str, Any] = {
     "tare_samples": 50,
     "virtual_damping": 1.0,
     "robot": "panda",
+    "urdf_file": str(LONGER),
+    "flange_frame": "iiwa_link_7",
+    "locked_joints": [],
     "hole_from_home": False,
     "seed": 7,
     # the guard: limits the recorded session stays within, tightened past it
@@ -197,8 +222,24 @@ STAGES = {
     "fbcc_controller": (controller.TABLE, _controller),
 }
 #: Transport settings a stage has no use for, each shown acting over DDS by the named test.
-TRANSPORT = {"dynamic_compensation.wrench_qos":
-             "test/nodes/test_wrench_qos.py::test_a_best_effort_sensor_is_heard_only_when_told"}
+_DESCRIBED = ("test/nodes/test_robot_description.py::"
+              "test_features_from_a_published_robot_description_match_the_truth")
+_UNDESCRIBED = ("test/nodes/test_robot_description.py::"
+                "test_without_a_description_the_node_says_where_it_waited")
+_COMMANDED = "test/nodes/test_command_types.py::"
+TRANSPORT = {
+    "dynamic_compensation.wrench_qos":
+        "test/nodes/test_wrench_qos.py::test_a_best_effort_sensor_is_heard_only_when_told",
+    **{f"{node}.description_timeout": _UNDESCRIBED
+       for node in ("mock_cell", "dynamic_compensation", "kinematics")},
+    "mock_cell.conventions": _DESCRIBED,
+    "mock_cell.publish_description": _DESCRIBED,
+    "kinematics.command_type":
+        f"{_COMMANDED}test_a_one_period_trajectory_for_a_joint_trajectory_controller",
+    "kinematics.command_topic":
+        f"{_COMMANDED}test_joint_positions_for_a_forward_position_controller",
+    "kinematics.base_frame": f"{_COMMANDED}test_the_flange_pose_for_a_cartesian_controller",
+}  # fmt: skip
 CASES = [(node, p) for node, (table, _) in STAGES.items() for p in table
          if f"{node}.{p.name}" not in TRANSPORT]  # fmt: skip
 

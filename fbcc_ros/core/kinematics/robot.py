@@ -1,6 +1,7 @@
-"""Robot models with Pinocchio: an arm by name (``iiwa14`` from this package's URDF; ``panda``
-and ``ur5`` from example-robot-data) or from any URDF, with the peg (tool) frame {P} added to its
-flange; the FK of the peg frame and frame Jacobians.
+"""Robot models with Pinocchio: an arm by name (the KUKA LBRs ``iiwa7``, ``iiwa14``, ``med7`` and
+``med14`` from this package's URDFs; ``panda`` and ``ur5`` from example-robot-data) or from any
+URDF, a file or the text a ``robot_description`` carries, with the peg (tool) frame {P} added to
+its flange; the FK of the peg frame and frame Jacobians.
 
 Frames: ``base`` is the robot's root (the URDF's first link), {F} the flange, {P} the peg frame
 (``fbcc_ros.core.contact.features``: origin at the tip centre, z along the peg out of the
@@ -22,8 +23,11 @@ from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.kinematics.lbr_names import PEG_LINK, lbr_description, renamed
 
-PEG_FRAME = "peg"
+PEG_FRAME = PEG_LINK
+#: The label of a URDF given as text: the topic ROS stacks share it on.
+DESCRIPTION = "robot_description"
 
 _URDF_DIR = Path(__file__).resolve().parents[2] / "urdf"
 
@@ -56,10 +60,26 @@ class RobotSpec:
     home: tuple[float, ...] = ()
 
 
-#: Robots known by name. The iiwa's net pitch q2 - q4 + q6 = pi points its flange down.
+#: Robots known by name. The LBRs (iiwa 7 and 14, Med 7 and 14; our URDFs, same joint and flange
+#: names) share one home: the net pitch q2 - q4 + q6 = pi points the flange down.
 ROBOTS: dict[str, Callable[[], RobotSpec]] = {
     "iiwa14": lambda: RobotSpec(
         urdf=_URDF_DIR / "iiwa14.urdf",
+        flange_frame="iiwa_flange",
+        home=(0.0, 0.5, 0.0, -1.5, 0.0, math.pi - 2.0, 0.0),
+    ),
+    "iiwa7": lambda: RobotSpec(
+        urdf=_URDF_DIR / "iiwa7.urdf",
+        flange_frame="iiwa_flange",
+        home=(0.0, 0.5, 0.0, -1.5, 0.0, math.pi - 2.0, 0.0),
+    ),
+    "med7": lambda: RobotSpec(
+        urdf=_URDF_DIR / "med7.urdf",
+        flange_frame="iiwa_flange",
+        home=(0.0, 0.5, 0.0, -1.5, 0.0, math.pi - 2.0, 0.0),
+    ),
+    "med14": lambda: RobotSpec(
+        urdf=_URDF_DIR / "med14.urdf",
         flange_frame="iiwa_flange",
         home=(0.0, 0.5, 0.0, -1.5, 0.0, math.pi - 2.0, 0.0),
     ),
@@ -101,8 +121,9 @@ class RobotModel:
     """A fixed-base arm with the peg frame on its flange.
 
     Args:
-        urdf: Path of the URDF (meshes are not needed).
-        flange_frame: Name of the frame the tool is mounted on.
+        urdf: Path of the URDF, or its text (a ``robot_description``); meshes are not needed.
+        flange_frame: Name of the frame the tool is mounted on; empty: the tip of the chain
+            (:func:`tip_frame`).
         tool: Placement of the peg frame in the flange frame.
         locked_joints: Joints to hold at zero and remove (gripper fingers).
         name: For messages.
@@ -111,32 +132,30 @@ class RobotModel:
     def __init__(
         self,
         urdf: str | Path,
-        flange_frame: str,
+        flange_frame: str = "",
         tool: Tool | None = None,
         locked_joints: Sequence[str] = (),
         name: str | None = None,
     ) -> None:
-        path = Path(urdf)
-        if not path.is_file():
-            raise ConfigError("urdf", str(path), "the path of an existing URDF file")
-        try:
-            model = pin.buildModelFromUrdf(str(path))
-        except (ValueError, RuntimeError) as exc:
-            raise ConfigError("urdf", str(path), f"a URDF Pinocchio can parse ({exc})") from exc
+        model, label, text = _parse(urdf)
+        #: the URDF's text, as a robot_description carries it
+        self.urdf_text = text
         self.name = name or model.name
         if locked_joints:
             missing = [j for j in locked_joints if not model.existJointName(j)]
             if missing:
                 raise ConfigError(
-                    "locked_joints", missing, f"joints of {path.name}: {_joint_names(model)}"
+                    "locked_joints", missing, f"joints of {label}: {_joint_names(model)}"
                 )
             ids = [model.getJointId(j) for j in locked_joints]
             model = pin.buildReducedModel(model, ids, pin.neutral(model))
+        if model.nq != model.nv or model.nq == 0:
+            raise ConfigError("urdf", label, "an arm of revolute or prismatic joints only "
+                              f"(it has {model.nq} position variables)")  # fmt: skip
+        flange_frame = flange_frame or tip_frame(model, label)
         if not model.existFrame(flange_frame):
             frames = [f.name for f in model.frames if f.type == pin.FrameType.BODY]
-            raise ConfigError("flange_frame", flange_frame, f"a link of {path.name}: {frames}")
-        if model.nq != model.nv:
-            raise ConfigError("urdf", str(path), "an arm of revolute or prismatic joints only")
+            raise ConfigError("flange_frame", flange_frame, f"a link of {label}: {frames}")
         flange_id = model.getFrameId(flange_frame)
         flange = model.frames[flange_id]
         placement = flange.placement * (tool or Tool()).placement()
@@ -144,7 +163,7 @@ class RobotModel:
             own = model.frames[model.getFrameId(PEG_FRAME)]
             if own.parentJoint != flange.parentJoint:
                 raise ConfigError(
-                    "urdf", str(path), f"its '{PEG_FRAME}' frame on the same link as the flange"
+                    "urdf", label, f"its '{PEG_FRAME}' frame on the same link as the flange"
                 )
             if tool is None:  # keep the URDF's own tool frame
                 placement = own.placement
@@ -164,17 +183,28 @@ class RobotModel:
         self.lower = np.array(model.lowerPositionLimit, dtype=float)
         self.upper = np.array(model.upperPositionLimit, dtype=float)
         self.velocity_limit = np.array(model.velocityLimit, dtype=float)
-        self.home = np.zeros(model.nq)
+        #: a configuration to start from: a built-in model's own (from_name), else the middle
+        #: of each joint's range (a URDF says nothing of where its arm works; zero may be
+        #: outside a range, or stretched out in a singularity)
+        self.home = (self.lower + self.upper) / 2.0
         self._peg_in_flange = flange.placement.actInv(model.frames[self.peg_id].placement)
         self._flange_in_peg = self._peg_in_flange.inverse()
 
     @classmethod
-    def from_name(cls, robot: str, tool: Tool | None = None) -> RobotModel:
-        """One of :data:`ROBOTS`, with its home configuration set."""
+    def from_name(cls, robot: str, tool: Tool | None = None, flange_frame: str = "",
+                  lbr_name: str = "") -> RobotModel:  # fmt: skip
+        """One of :data:`ROBOTS`, with its home configuration set; ``flange_frame`` overrides
+        its flange (e.g. a gripper's link); ``lbr_name``: an LBR under lbr_fri_ros2_stack's
+        names with that ``robot_name`` (:mod:`~fbcc_ros.core.kinematics.lbr_names`)."""
         if robot not in ROBOTS:
             raise ConfigError("robot", robot, f"one of {sorted(ROBOTS)}")
         spec = ROBOTS[robot]()
-        model = cls(spec.urdf, spec.flange_frame, tool, spec.locked_joints, name=robot)
+        urdf: str | Path = spec.urdf
+        flange = flange_frame or spec.flange_frame
+        if lbr_name:
+            urdf = lbr_description(spec.urdf.read_text(), lbr_name)
+            flange = renamed(flange, lbr_name)
+        model = cls(urdf, flange, tool, spec.locked_joints, name=robot)
         model.home = model.check_joints(spec.home, "home")
         return model
 
@@ -265,6 +295,45 @@ class RobotModel:
         pin.computeJointJacobians(self.model, self.data, arr)
         pin.updateFramePlacements(self.model, self.data)
         return np.array(pin.getFrameJacobian(self.model, self.data, fid, axes))
+
+
+def _parse(urdf: str | Path) -> tuple[pin.Model, str, str]:
+    """The Pinocchio model of a URDF given by path or as text, a label for messages, and the
+    text."""
+    given = isinstance(urdf, str) and urdf.lstrip().startswith("<")
+    if not given and not Path(urdf).is_file():
+        raise ConfigError("urdf", str(urdf), "the path of an existing URDF file")
+    text = str(urdf) if given else Path(urdf).read_text()
+    label = DESCRIPTION if given else Path(urdf).name
+    try:
+        return pin.buildModelFromXML(text), label, text
+    except (ValueError, RuntimeError) as exc:
+        shown = text[:60] + "..." if given else str(urdf)
+        raise ConfigError("urdf", shown, f"a URDF Pinocchio can parse ({exc})") from exc
+
+
+def tip_frame(model: pin.Model, label: str = "the URDF") -> str:
+    """The link at the tip of the arm: the one link fixed to the last joint that carries no
+    other link (a ``peg`` link apart). The flange of a description that names its tool link
+    last (``lbr_link_ee``, ``tool0``); a tree with several such tips must name its flange."""
+    last = model.njoints - 1
+    skip = set()  # the peg link and its joint: the tool frame, not a link of the arm
+    if model.existFrame(PEG_FRAME):
+        peg = model.getFrameId(PEG_FRAME)
+        skip = {peg, model.frames[peg].parentFrame}
+    parents = {f.parentFrame for i, f in enumerate(model.frames) if i not in skip}
+    tips = [
+        f.name
+        for i, f in enumerate(model.frames)
+        if f.type == pin.FrameType.BODY
+        and f.parentJoint == last
+        and f.name != PEG_FRAME
+        and i not in parents
+    ]
+    if len(tips) != 1:
+        raise ConfigError("flange_frame", "", f"one of the tips of {label}: {tips} (it has "
+                          f"{len(tips)}; name the link the tool is mounted on)")  # fmt: skip
+    return tips[0]
 
 
 def _joint_names(model: pin.Model) -> list[str]:
