@@ -8,6 +8,8 @@ replay, ``fbcc-calibrate``'s loader) take every form.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 
@@ -26,3 +28,25 @@ def node_section(doc: Any, node: str) -> dict[str, Any] | None:
         if node_of(key) == node and isinstance(body, dict):
             found = {**(found or {}), **(body.get("ros__parameters") or {})}
     return found
+
+
+def file_parameters(files: Sequence[Path], node: str) -> dict[str, Any]:
+    """``node``'s parameters from parameter files applied in order (later files win), as rcl
+    applies several ``--params-file``."""
+    import yaml
+
+    out: dict[str, Any] = {}
+    for file in files:
+        out.update(flatten(node_section(yaml.safe_load(Path(file).read_text()), node) or {}))
+    return out
+
+
+def flatten(params: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """``{payload: {mass: 1}}`` → ``{"payload.mass": 1}``, as ROS names nested parameters."""
+    out: dict[str, Any] = {}
+    for name, value in params.items():
+        if isinstance(value, dict):
+            out.update(flatten(value, f"{prefix}{name}."))
+        else:
+            out[f"{prefix}{name}"] = value
+    return out

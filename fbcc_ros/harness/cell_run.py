@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from fbcc_ros.core.errors import FbccError
+from fbcc_ros.core.param_files import file_parameters
 from fbcc_ros.ros.executor import make_executor
 from fbcc_ros.ros.params import settle
 
@@ -34,13 +35,16 @@ from fbcc_ros.ros.params import settle
 @dataclass
 class NodeSpec:
     """A node to run: its name (and module ``fbcc_ros.nodes.<name>``), its class for the
-    in-process mode, its parameter overrides, and whether it runs in its own process even when
-    the others share this one (the recorder: its disk writes stay off the loop's core)."""
+    in-process mode, its parameter overrides (applied after its parameter ``files``), whether
+    it runs in its own process even when the others share this one (the recorder: its disk
+    writes stay off the loop's core), and its namespace."""
 
     name: str
     factory: Callable[..., Any]
     parameters: dict[str, Any] = field(default_factory=dict)
     own_process: bool = False
+    files: tuple[Path, ...] = ()
+    namespace: str = ""
 
 
 #: The chain links in one process: (upstream node, its outlet, downstream node, its callback).
@@ -71,6 +75,8 @@ class CellRun:
         probe: bool = False,
         log_dir: Path | None = None,
         chain: bool = True,
+        namespace: str = "",
+        command_topic: str = "joint_command",
     ) -> None:
         import rclpy
 
@@ -81,7 +87,8 @@ class CellRun:
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
         self.executor = make_executor(self.context)
-        self.observer = Observer(probe=probe, context=self.context)
+        self.observer = Observer(probe=probe, context=self.context, namespace=namespace,
+                                 command_topic=command_topic)  # fmt: skip
         self.nodes: dict[str, Any] = {}
         self.procs: dict[str, subprocess.Popen[bytes]] = {}
         self._callback_cpu: dict[str, int] = {}
@@ -113,8 +120,10 @@ class CellRun:
     def _build(self, spec: NodeSpec) -> Any:
         from rclpy.parameter import Parameter
 
-        overrides = [Parameter(k, value=v) for k, v in spec.parameters.items()]
-        return spec.factory(context=self.context, parameter_overrides=overrides)
+        values = {**file_parameters(spec.files, spec.name), **spec.parameters}
+        overrides = [Parameter(k, value=v) for k, v in values.items()]
+        return spec.factory(context=self.context, parameter_overrides=overrides,
+                            namespace=spec.namespace)  # fmt: skip
 
     def _add(self, name: str, node: Any) -> None:
         self._time_callbacks(name, node)
@@ -213,7 +222,11 @@ class CellRun:
 
     def _spawn(self, spec: NodeSpec) -> None:
         self.log_dir.mkdir(parents=True, exist_ok=True)
-        cmd = [sys.executable, "-m", f"fbcc_ros.nodes.{spec.name}", *ros_args(spec.parameters)]
+        files = [arg for f in spec.files for arg in ("--params-file", str(f))]
+        cmd = [sys.executable, "-m", f"fbcc_ros.nodes.{spec.name}", "--ros-args", *files,
+               *ros_args(spec.parameters)[1:]]  # the files, then the values over them
+        if spec.namespace:
+            cmd += ["-r", f"__ns:={spec.namespace}"]
         with (self.log_dir / f"{spec.name}.log").open("wb") as log:
             self.procs[spec.name] = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT)
 

@@ -25,7 +25,8 @@ from fbcc_ros.ros.convert import stamp_to_seconds
 
 
 class Observer(Node):
-    def __init__(self, probe: bool = False, **kwargs: Any) -> None:
+    def __init__(self, probe: bool = False, command_topic: str = topics.JOINT_COMMAND,
+                 **kwargs: Any) -> None:  # fmt: skip
         super().__init__("fbcc_observer", **kwargs)
         self.counts = {"compensated": 0, "features": 0, "commands": 0, "ik_failures": 0}
         self.truth: list[tuple[float, ...]] = []
@@ -49,7 +50,7 @@ class Observer(Node):
         for kind, topic, key in (
             (WrenchStamped, topics.COMPENSATED_WRENCH, "compensated"),
             (PoseStamped, topics.FEATURES, "features"),
-            (Float64MultiArray, topics.JOINT_COMMAND, "commands"),
+            (Float64MultiArray, command_topic, "commands"),
             (String, topics.KINEMATICS_STATUS, "ik_failures"),
         ):
             handle = sub(kind, topic, self._counter(key), 10, raw=True)

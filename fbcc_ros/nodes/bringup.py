@@ -30,17 +30,17 @@ import numpy as np
 
 from fbcc_ros.bag.writer import check_new_folder
 from fbcc_ros.core.errors import FbccError, InputError, command
+from fbcc_ros.core.param_files import file_parameters
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import score
+from fbcc_ros.harness.cell_nodes import CellSetup, profile_of
+from fbcc_ros.harness.cell_nodes import cell_nodes as harness_cell_nodes
 from fbcc_ros.harness.cell_run import CellRun, NodeSpec
 from fbcc_ros.harness.fault_drill import DRILLS, StepMeter, describe, run_drill
 from fbcc_ros.nodes.fbcc_record import CELL_TOPICS, default_folder
-from fbcc_ros.pipeline.mock_cell import FIXTURE_COM, FIXTURE_MASS
 from fbcc_ros.ros import topics
 
 DEFAULT_SCENARIO = "config/scenarios/bringup_interference.yaml"
-#: Readings averaged into the sensor's bias before the insertion starts.
-TARE_SAMPLES = 200
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -97,48 +97,58 @@ def cell_nodes(
     seed: int = 0,
     processes: bool = False,
 ) -> list[NodeSpec]:
-    """The four nodes of the hardware-free cell, with the bringup's parameters."""
+    """The four nodes of the hardware-free cell (:mod:`fbcc_ros.harness.cell_nodes`, as the
+    launch file starts them, with the mock playing the stack of the scenario's ``robot``
+    section), with the bringup's own: the drawn geometry, the seed, the timeout of processes."""
     from fbcc_ros.nodes.dynamic_compensation import DynamicCompensationNode
     from fbcc_ros.nodes.fbcc_controller import FbccControllerNode
     from fbcc_ros.nodes.kinematics import KinematicsNode
     from fbcc_ros.nodes.mock_cell import MockCellNode
 
-    acting = sc.geometry.acting_point_in_hole().tolist()
-    return [
-        NodeSpec("mock_cell", MockCellNode,
-                 {"scenario": path, "draw_geometry": draw_geometry, "seed": seed,
-                  "rate_hz": sc.rate_hz}),
-        # the mock's fixture is the payload: the tare then measures the bias alone
-        NodeSpec("dynamic_compensation", DynamicCompensationNode,
-                 {"sensor_xyz": acting, "tare_samples": TARE_SAMPLES,
-                  "payload.mass": FIXTURE_MASS, "payload.com": list(FIXTURE_COM)}),
-        NodeSpec("kinematics", KinematicsNode, {"rate_hz": sc.rate_hz}),
-        NodeSpec("fbcc_controller", FbccControllerNode,
-                 {"scenario": path, "law": law, "rate_hz": sc.rate_hz,
-                  **({"timeout": PROCESSES_TIMEOUT} if processes else {})}),
-    ]  # fmt: skip
+    factories = {"mock_cell": MockCellNode, "dynamic_compensation": DynamicCompensationNode,
+                 "kinematics": KinematicsNode, "fbcc_controller": FbccControllerNode}
+    own: dict[str, dict[str, Any]] = {"mock_cell": {"draw_geometry": draw_geometry, "seed": seed},
+           "fbcc_controller": {"law": law,
+                               **({"timeout": PROCESSES_TIMEOUT} if processes else {})}}
+    setup = CellSetup(profile_of(sc.cell.conventions), path, namespace=sc.cell.namespace)
+    return [NodeSpec(node.name, factories[node.name],
+                     {**node.parameters, **own.get(node.name, {})}, files=node.files,
+                     namespace=sc.cell.namespace)
+            for node in harness_cell_nodes(setup)]  # fmt: skip
 
 
-#: What the bringup records: the cell's topics but the two computed only while heard
-#: (``fbcc-report`` derives the contact state from the recorded wrench and features; replay and
-#: report do not use the TCP command); recording them cost the loop ~7 % of its cycles.
-BRINGUP_TOPICS = [t for t in CELL_TOPICS if t not in (topics.CONTACT_STATE, topics.TCP_COMMAND)]
+def recorded_topics(conventions: str) -> list[str]:
+    """What the bringup records: the cell's topics but the two computed only while heard
+    (``fbcc-report`` derives the contact state from the recorded wrench and features; replay
+    and report do not use the TCP command; recording them cost the loop ~7 % of its cycles);
+    beside the LBR stack, its command and estimated wrench in place of ours."""
+    skip: tuple[str, ...] = (topics.CONTACT_STATE, topics.TCP_COMMAND)
+    if conventions != "lbr":
+        return [t for t in CELL_TOPICS if t not in skip]
+    skip += (topics.JOINT_COMMAND,)
+    return [t for t in CELL_TOPICS if t not in skip] + [topics.LBR_COMMAND, topics.LBR_WRENCH]
 
 
-def recorder(bag: Path) -> NodeSpec:
+def command_topic(conventions: str) -> str:
+    """Where the joint command goes beside the stack the mock plays."""
+    return topics.LBR_COMMAND if conventions == "lbr" else topics.JOINT_COMMAND
+
+
+def recorder(bag: Path, conventions: str = "fbcc", namespace: str = "") -> NodeSpec:
     """The cell's recorder, in its own process, writing ``bag``."""
     from fbcc_ros.nodes.fbcc_record import FbccRecordNode
 
-    return NodeSpec("fbcc_record", FbccRecordNode, {"out": str(bag), "topics": BRINGUP_TOPICS},
-                    own_process=True)  # fmt: skip
+    return NodeSpec("fbcc_record", FbccRecordNode,
+                    {"out": str(bag), "topics": recorded_topics(conventions)},
+                    own_process=True, namespace=namespace)  # fmt: skip
 
 
-def wait_recording(run: CellRun, timeout: float) -> None:
+def wait_recording(run: CellRun, timeout: float, conventions: str = "fbcc") -> None:
     """Waits until the recorder subscribes every topic it records, and, for the nodes in this
     process, until their publishers have matched it: a subscription seen in the graph is not
     yet matched by the publisher, and what it publishes meanwhile is lost (the first 30 ms of
     commands, once). Nothing of the insertion is lost."""
-    names = [run.observer.resolve_topic_name(t) for t in BRINGUP_TOPICS]
+    names = [run.observer.resolve_topic_name(t) for t in recorded_topics(conventions)]
     graph = run.observer.get_subscriptions_info_by_topic
     publishers = [p for node in run.nodes.values() for p in node.publishers
                   if p.topic_name in names]  # fmt: skip
@@ -161,8 +171,8 @@ def wait_recording(run: CellRun, timeout: float) -> None:
 
 
 def write_parameters(bag: Path, specs: list[NodeSpec]) -> None:
-    """The nodes' given parameters beside the bag (``fbcc_params.yaml``, ros__parameters form),
-    for the offline replay: with each table's defaults they are the whole configuration."""
+    """The nodes' parameters beside the bag (``fbcc_params.yaml``, ros__parameters form: their
+    files' and the values over them), for the offline replay: the whole configuration."""
     import yaml
 
     from fbcc_ros.bag.offline import PARAMS_FILE
@@ -171,7 +181,8 @@ def write_parameters(bag: Path, specs: list[NodeSpec]) -> None:
         def ignore_aliases(self, data: Any) -> bool:
             return True
 
-    doc = {s.name: {"ros__parameters": s.parameters} for s in specs if not s.own_process}
+    doc = {s.name: {"ros__parameters": {**file_parameters(s.files, s.name), **s.parameters}}
+           for s in specs if not s.own_process}  # the profile's too: the whole configuration
     (bag / PARAMS_FILE).write_text(yaml.dump(doc, Dumper=Plain, sort_keys=False))
 
 
@@ -231,10 +242,11 @@ def run_cell(
     sc = scenario_io.load(path)
     specs = cell_nodes(path, sc, law, draw_geometry, seed, processes)
     if bag is not None:
-        specs.append(recorder(bag))
-    with CellRun(specs, processes=processes, log_dir=log_dir) as run:
+        specs.append(recorder(bag, sc.cell.conventions, sc.cell.namespace))
+    with CellRun(specs, processes=processes, log_dir=log_dir, namespace=sc.cell.namespace,
+                 command_topic=command_topic(sc.cell.conventions)) as run:
         if bag is not None or wait_for_recorder:
-            wait_recording(run, timeout=30.0)
+            wait_recording(run, timeout=30.0, conventions=sc.cell.conventions)
         if fault:
             kinematics = run.nodes["kinematics"].stage
             meter = StepMeter(run.observer, kinematics.cell.robot.velocity_limit, kinematics.dt)

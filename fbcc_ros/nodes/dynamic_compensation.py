@@ -1,9 +1,11 @@
 """dynamic_compensation node (Fig. 7): raw WrenchStamped → the compensated wrench in {H}.
 
-Subscribes ``ft_sensor/raw`` (WrenchStamped in the sensor frame; reliable, or best-effort with
-``wrench_qos: best_effort`` for a driver publishing sensor-data QoS) and, for a wrist sensor,
-``joint_states``; with ``virtual_sensor`` it takes the arm's external joint torques from the
-``effort`` of ``external_joint_torques`` (JointState) instead of a sensor. Publishes
+Subscribes ``wrench_topic`` (``ft_sensor/raw`` by default; WrenchStamped in the sensor frame;
+reliable, or best-effort with ``wrench_qos: best_effort`` for a driver publishing sensor-data
+QoS) and, for a wrist sensor, ``joint_states``. With ``virtual_sensor`` it takes the arm's joint
+torques instead of a sensor: the external ones from the ``effort`` of ``external_joint_torques``
+(JointState), or with ``joint_torques: measured`` the measured ones from the ``effort`` of
+``joint_states``, less our gravity model. Publishes
 ``ft_sensor/compensated``: the wrench the peg exerts on the hole, frame ``hole``, moments about
 its origin (right-handed; the controller's Fz is its negated z force). The pipeline, the
 sign conventions and the calibration file are in ``docs/compensation.md``; rejected samples
@@ -48,13 +50,15 @@ class DynamicCompensationNode(Node):
         self.create_subscription(String, topics.REARM, self.on_rearm, 10)
         self._publish_bias(self.get_clock().now().nanoseconds * 1e-9)
         sub = self.create_subscription  # raw: CDR bytes, decoded by fbcc_ros.ros.convert
-        if self.stage.robot is not None:
-            sub(JointState, topics.JOINT_STATES, self.on_joints, 10, raw=True)
         qos = topics.input_qos(values["wrench_qos"])  # a transport setting: the stage has none
-        if self.stage.virtual:
-            sub(JointState, "external_joint_torques", self.on_torques, qos, raw=True)
-        else:
-            sub(WrenchStamped, topics.RAW_WRENCH, self.on_raw, qos, raw=True)
+        if self.stage.measured:  # the joint states carry the torques: one input, its QoS
+            sub(JointState, topics.JOINT_STATES, self.on_measured, qos, raw=True)
+        elif self.stage.robot is not None:
+            sub(JointState, topics.JOINT_STATES, self.on_joints, 10, raw=True)
+        if self.stage.virtual and not self.stage.measured:
+            sub(JointState, topics.EXTERNAL_TORQUES, self.on_torques, qos, raw=True)
+        elif not self.stage.virtual:
+            sub(WrenchStamped, values["wrench_topic"], self.on_raw, qos, raw=True)
         counts = self.stage.comp.counts
         rejected = tuple(k for k in counts if k not in ("accepted", "taring"))
         publish_diagnostics(self, counter_report(lambda: self.stage.comp.counts, rejected,
@@ -91,6 +95,15 @@ class DynamicCompensationNode(Node):
             self.get_logger().warn(f"external torques rejected: {exc}", throttle_duration_sec=1.0)
             return
         self._publish(self.stage.torques(stamp, tau, received=self.now()))
+
+    def on_measured(self, data: bytes) -> None:
+        try:
+            stamp, q, dq = joints_from_cdr(data, self._names)
+            _, effort = efforts_from_cdr(data, self._names)
+        except FbccError as exc:
+            self.get_logger().warn(f"joint state rejected: {exc}", throttle_duration_sec=1.0)
+            return
+        self._publish(self.stage.measured_torques(stamp, q, dq, effort, received=self.now()))
 
     def on_rearm(self, msg: String) -> None:
         cleared = self.stage.rearm()

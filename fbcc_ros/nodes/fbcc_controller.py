@@ -63,7 +63,7 @@ class FbccControllerNode(Node):
         self.create_timer(0.01, self.on_watchdog)
         self._phase_said = ""
         self._state_said = ""
-        self._mismatch_said = ""
+        self._warned: set[str] = set()
         self._publish_phase()
         publish_diagnostics(self, self._report)
 
@@ -80,13 +80,12 @@ class FbccControllerNode(Node):
                   "armed": not not_armed, "not_armed": not_armed,
                   "contact_state": self._state_said, "input_rate_hz": rate.measured_hz,
                   "late_samples": self.sup.late}  # fmt: skip
-        said, mismatch = self.stage.said, rate.mismatch()
-        if mismatch != self._mismatch_said:
-            self._mismatch_said = mismatch
-            if mismatch:
-                self.get_logger().warn(mismatch)
-        if mismatch and level == OK:
-            level, said = WARN, f"{said}; {mismatch}"
+        said, warnings = self.stage.said, self.stage.warnings()
+        for warning in set(warnings) - self._warned:  # each said once, when it starts
+            self.get_logger().warn(warning)
+        self._warned = set(warnings)
+        if warnings and level == OK:
+            level, said = WARN, "; ".join([said, *warnings])
         return level, said, values
 
     def now(self) -> float:

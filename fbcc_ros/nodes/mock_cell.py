@@ -18,6 +18,7 @@ from __future__ import annotations
 import time
 from typing import Any
 
+import numpy as np
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -45,12 +46,19 @@ class MockCellNode(Node):
                        "commands_refused": 0}  # fmt: skip
         self._start: float | None = None
         self.pub_joints = self.create_publisher(JointState, topics.JOINT_STATES, 10)
-        self.pub_raw = self.create_publisher(WrenchStamped, topics.RAW_WRENCH, 10)
+        self.pub_raw = self.create_publisher(WrenchStamped, topics.RAW_WRENCH,
+                                             topics.input_qos(values["sensor_qos"]))
+        self.lbr = values["conventions"] == "lbr"
+        self.arm_sensing = values["arm_sensing"]
+        self.pub_external = (self.create_publisher(JointState, topics.EXTERNAL_TORQUES, 10)
+                             if self.arm_sensing else None)  # fmt: skip
+        # the stack's estimated wrench, at its flange (lbr_link_ee)
+        self.pub_estimated = (self.create_publisher(WrenchStamped, topics.LBR_WRENCH, 10)
+                              if self.lbr and self.arm_sensing else None)  # fmt: skip
         self.pub_truth = self.create_publisher(Float64MultiArray, topics.TRUTH, 100)
         # raw: CDR bytes, decoded by fbcc_ros.ros.convert (no rclpy message objects at 1 kHz)
         sub = self.create_subscription
-        lbr = values["conventions"] == "lbr"
-        sub(Float64MultiArray, topics.LBR_COMMAND if lbr else topics.JOINT_COMMAND,
+        sub(Float64MultiArray, topics.LBR_COMMAND if self.lbr else topics.JOINT_COMMAND,
             self.on_command, 10, raw=True)  # fmt: skip
         # the stack's robot_state_publisher, played (not with a model from the topic)
         if values["publish_description"] and not needs_description(values):
@@ -93,7 +101,19 @@ class MockCellNode(Node):
 
     def _tick(self, now: float) -> None:
         sample = self.cell.step(self.dt)
-        self.pub_joints.publish(joints_to_cdr(self.names, sample.q, sample.dq, now))
+        if not self.arm_sensing:
+            self.pub_joints.publish(joints_to_cdr(self.names, sample.q, sample.dq, now))
+        else:
+            arm = self.stage.arm_sensing(sample, estimate=self.pub_estimated is not None)
+            self.pub_joints.publish(joints_to_cdr(self.names, sample.q, sample.dq, now,
+                                                  arm.measured))  # fmt: skip
+            if self.pub_external is not None and self.pub_external.get_subscription_count():
+                zero = np.zeros(0)
+                self.pub_external.publish(joints_to_cdr(self.names, zero, zero, now,
+                                                        arm.external))  # fmt: skip
+            if self.pub_estimated is not None and arm.estimated is not None:
+                self.pub_estimated.publish(wrench_to_cdr(
+                    arm.estimated, self.cell.robot.flange_frame, now))  # fmt: skip
         for stamp, raw in self.stage.readings(now, sample.raw):
             self.pub_raw.publish(wrench_to_cdr(raw, self.frame, stamp))
         if self.pub_truth.get_subscription_count():

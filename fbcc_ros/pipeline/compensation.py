@@ -44,11 +44,16 @@ TABLE = (
           read_only=False),
     Param("deadband", [0.0, 0.0], "output dead band [force, moment]", "N, N m",
           read_only=False),
+    Param("wrench_topic", "ft_sensor/raw", "where the raw wrench comes from (e.g. "
+          "force_torque_broadcaster/wrench, the LBR stack's estimate)"),
     Param("wrench_qos", "reliable", "reliability of the raw wrench (or external torques) "
           "subscription: best_effort for a driver publishing sensor-data QoS, which a reliable "
           "subscription never hears (a best-effort one hears both)",
           choices=("reliable", "best_effort")),
-    Param("virtual_sensor", False, "wrench from external joint torques instead of a sensor"),
+    Param("virtual_sensor", False, "wrench from the arm's joint torques instead of a sensor"),
+    Param("joint_torques", "external", "the virtual sensor's torques: external (the arm's "
+          "estimate, effort of external_joint_torques) or measured (effort of joint_states, less "
+          "our gravity model)", choices=("external", "measured")),
     Param("virtual_damping", 0.01, "damping of the virtual sensor's pseudo-inverse", "", 0.0,
           10.0),
     Param("acceleration_lowpass_hz", 10.0, "low-pass of the differentiated joint "
@@ -124,6 +129,7 @@ class CompensationStage:
         hole = hole_from(values, robot)
         self.setup = setup_from(values, hole)
         self.virtual = bool(values["virtual_sensor"])
+        self.measured = self.virtual and values["joint_torques"] == "measured"
         if self.virtual and self.setup.placement != "wrist":
             raise ConfigError("virtual_sensor", True, "placement 'wrist' with it (the joint "
                               "torques give the wrench at the wrist)")  # fmt: skip
@@ -179,6 +185,19 @@ class CompensationStage:
                 ) -> Compensated | None:  # fmt: skip
         """The virtual sensor: external joint torques → the compensated wrench."""
         return self._output(self.comp.joint_torques(stamp, external_torques, received))
+
+    def measured_torques(self, stamp: float, q: ArrayLike, dq: ArrayLike | None,
+                         effort: ArrayLike, received: float | None = None
+                         ) -> Compensated | None:  # fmt: skip
+        """The virtual sensor from one joint state's measured torques:
+        ``tau_ext = tau - g(q)`` (KUKA's: the external torque is the measured one less the
+        model's), ``g`` our gravity model of the arm (an error in it reads as a wrench: the
+        tare takes its value at the start pose)."""
+        assert self.robot is not None  # a virtual sensor is a wrist one
+        if not self.comp.joints(stamp, q, dq):
+            return None
+        tau_ext = np.asarray(effort, dtype=float) - self.robot.gravity(q)
+        return self.torques(stamp, tau_ext, received)
 
     def _output(self, out: Compensated | None) -> Compensated | None:
         self.just_tripped = self.comp.guard.tripped and not self._tripped_said

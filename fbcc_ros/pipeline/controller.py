@@ -26,6 +26,7 @@ from fbcc_ros.core.control.robust import RobustFbcc
 from fbcc_ros.core.control.supervisor import SafetyLimits, Supervisor
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.pipeline.lateral_watch import LateralWatch
 from fbcc_ros.pipeline.parameters import Param
 from fbcc_ros.pipeline.rate import InputRate
 
@@ -91,6 +92,7 @@ class ControllerStage:
         self._periods = 0
         self.response: FloatArray | None = None  # the last period's
         self.input_rate = InputRate(rate, "the compensated wrench")
+        self.lateral = LateralWatch()
 
     def preload(self) -> None:
         """Load the law's compiled step now, not in the first period."""
@@ -106,6 +108,11 @@ class ControllerStage:
                 raise ConfigError(name, value, f"at most its start-up value {configured:g} "
                                   "while running (a limit is only tightened at runtime)")
         self.sup.limits = limits
+
+    def warnings(self) -> list[str]:
+        """What is wrong with the stage's input: its rate, a dead band hiding the lateral
+        forces."""
+        return [w for w in (self.input_rate.mismatch(), self.lateral.warning()) if w]
 
     @property
     def said(self) -> str:
@@ -144,6 +151,7 @@ class ControllerStage:
         the peg's pose in {H} (the held one outside an insertion; None before the first)."""
         self.input_rate.sample(stamp)
         self.response = response_from_wrench(wrench, self.acting_point)
+        self.lateral.sample(self.response)
         command = self.sup.on_response(now, self.response, stamp)
         self._periods += 1
         return self.pose(command)

@@ -9,6 +9,7 @@ configuration without ROS. Its one runtime parameter injects a sensor fault
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -16,8 +17,14 @@ import numpy as np
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.compensation.payload import Payload
 from fbcc_ros.core.contact.mapping_study import perturbed
+from fbcc_ros.core.filters import LowPass
 from fbcc_ros.core.sim import scenario as scenario_io
-from fbcc_ros.core.sim.mock_cell import MockCell
+from fbcc_ros.core.sim.arm_sensing import (
+    LBR_TORQUE_CUTOFF_HZ,
+    estimated_wrench,
+    measured_torques,
+)
+from fbcc_ros.core.sim.mock_cell import CellSample, MockCell
 from fbcc_ros.core.sim.sensor_faults import SENSOR_FAULTS, Reading, SensorFault
 from fbcc_ros.pipeline.kinematics import CELL, cell_from
 from fbcc_ros.pipeline.parameters import Param
@@ -43,10 +50,18 @@ TABLE = (
     Param("sensor_frame", "ft_sensor", "frame_id of the raw readings"),
     Param("fixture_mass", FIXTURE_MASS, "mass of the hole fixture on the sensor", "kg", 0.0,
           100.0),
+    Param("arm_sensing", False, "publish the arm's joint torques (effort of joint_states, "
+          "external_joint_torques) and, with conventions lbr, its estimated wrench: what a "
+          "virtual sensor or the LBR stack's estimate reads (a 1 kHz cell's spare time "
+          "without)"),
+    Param("torque_noise", 0.05, "white noise (1 sigma) on each external joint torque, as the "
+          "arm's torque sensing adds it", "N m", 0.0, 100.0),
     Param("conventions", "fbcc", "the robot stack the mock plays: fbcc (our names) or lbr "
           "(lbr_fri_ros2_stack's joint and link names, its forward position controller's "
           "command topic)", choices=CONVENTIONS),
-    # a transport setting (the node's)
+    # transport settings (the node's)
+    Param("sensor_qos", "reliable", "reliability of the F/T sensor's readings: best_effort as "
+          "a driver publishing sensor-data QoS", choices=("reliable", "best_effort")),
     Param("publish_description", True, "latch the model's URDF on robot_description, as the "
           "robot stack's robot_state_publisher does"),
     Param("sensor_fault", "", "a sensor fault to rehearse, from the next reading on (empty: "
@@ -54,6 +69,16 @@ TABLE = (
     *CELL,
 )  # fmt: skip
 
+
+
+@dataclasses.dataclass(frozen=True)
+class ArmReading:
+    """The arm's own sensing at one tick: ``external`` and ``measured`` joint torques [N m],
+    and the stack's ``estimated`` wrench at the flange (force, moment; flange axes) or None."""
+
+    external: FloatArray
+    measured: FloatArray
+    estimated: FloatArray | None
 
 
 class MockStage:
@@ -79,12 +104,29 @@ class MockStage:
         self.dt = 1.0 / (values["rate_hz"] or sc.rate_hz)
         self.frame: str = values["sensor_frame"]
         self.fault: SensorFault | None = None
+        self.torque_noise = values["torque_noise"]
+        # the LBR stack low-passes the torques it publishes (arm_sensing)
+        self._torque_lowpass = LowPass(LBR_TORQUE_CUTOFF_HZ if lbr else 0.0)
+        self._rng = np.random.default_rng(seed + 1)  # its own stream: the sensor's stays as is
         self.apply(values)
 
     def apply(self, values: dict[str, Any]) -> None:
         """The runtime parameter: ``sensor_fault`` (``core.sim.sensor_faults``)."""
         name = values["sensor_fault"]
         self.fault = SensorFault(name, self.dt) if name else None
+
+    def arm_sensing(self, sample: CellSample, estimate: bool) -> ArmReading:
+        """The arm's own sensing of ``sample``, the last step (:mod:`fbcc_ros.core.sim.
+        arm_sensing`): its external joint torques with their noise, the measured joint
+        torques, and with ``estimate`` the stack's estimated wrench at the flange."""
+        robot = self.cell.robot
+        noise = self.torque_noise * self._rng.standard_normal(robot.nq)
+        tau_ext = self._torque_lowpass(self.cell.external_torques() + noise, self.dt)
+        measured = measured_torques(robot, sample.q, tau_ext)
+        if not estimate:
+            return ArmReading(tau_ext, measured, None)
+        return ArmReading(tau_ext, measured,
+                          estimated_wrench(robot, sample.q, tau_ext, robot.flange_frame))
 
     def readings(self, stamp: float, raw: FloatArray) -> list[Reading]:
         """What the sensor delivers for the reading ``raw`` taken at ``stamp`` [s]: itself, or

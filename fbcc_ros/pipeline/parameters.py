@@ -14,6 +14,9 @@ from collections.abc import Sequence
 from typing import Any
 
 from fbcc_ros.core.errors import ConfigError, closest
+from fbcc_ros.core.param_files import flatten
+
+__all__ = ["Param", "flatten", "resolve", "unknown_names"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,15 +91,3 @@ def resolve(stage: str, table: Sequence[Param], given: dict[str, Any]) -> dict[s
     for p in table:
         p.check(values[p.name], stage)
     return values
-
-
-def flatten(params: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    """``{payload: {mass: 1}}`` → ``{"payload.mass": 1}``, as ROS names nested parameters."""
-    out: dict[str, Any] = {}
-    for name, value in params.items():
-        if isinstance(value, dict):
-            out.update(flatten(value, f"{prefix}{name}."))
-        else:
-            out[f"{prefix}{name}"] = value
-    return out
-

@@ -93,8 +93,11 @@ def _ordered(values: Sequence[float], order: list[int] | None) -> FloatArray:
     return np.array(values) if order is None else np.array(values)[order]
 
 
-def joints_to_cdr(names: Sequence[str], q: FloatArray, dq: FloatArray, seconds: float) -> bytes:
-    return cdr.encode_joints(seconds_to_stamp(seconds), "", names, q.tolist(), dq.tolist())
+def joints_to_cdr(names: Sequence[str], q: FloatArray, dq: FloatArray, seconds: float,
+                  effort: FloatArray | None = None) -> bytes:  # fmt: skip
+    efforts = () if effort is None else effort.tolist()
+    return cdr.encode_joints(seconds_to_stamp(seconds), "", names, q.tolist(), dq.tolist(),
+                             efforts)  # fmt: skip
 
 
 def positions_from_cdr(data: bytes) -> FloatArray:

@@ -6,6 +6,10 @@ JOINT_STATES = "joint_states"
 JOINT_COMMAND = "joint_command"
 #: lbr_fri_ros2_stack's joint position command (its forward_position_controller).
 LBR_COMMAND = "forward_position_controller/commands"
+#: lbr_fri_ros2_stack's estimated wrench at its lbr_link_ee (its force_torque_broadcaster).
+LBR_WRENCH = "force_torque_broadcaster/wrench"
+#: The arm's external joint torques (JointState, in ``effort``): a virtual sensor's input.
+EXTERNAL_TORQUES = "external_joint_torques"
 #: The robot's URDF, latched (robot_state_publisher's, ros2_control's convention).
 ROBOT_DESCRIPTION = "robot_description"
 RAW_WRENCH = "ft_sensor/raw"

@@ -28,7 +28,7 @@ def test_the_report_of_a_recorded_session(tmp_path: Path, capsys) -> None:
     bag = read_bag(BAG)
     assert summary["messages"] == {t: bag.counts[t] for t in bag.topics}
     assert summary["truncated"] == "" and summary["commands"] == bag.counts["/fbcc/command"]
-    assert [p["phase"] for p in summary["phases"]] == ["idle", "inserting", "inserted"]
+    assert [p["phase"] for p in summary["phases"]] == ["idle", "armed", "inserting", "inserted"]
     # the scenario's 4 mm at no more than 5 mm/s from the first command (the robust law slows
     # or holds the depth while the lateral loops settle), within the 1.6 s session
     assert 0.8 - 0.01 <= summary["insertion_time_s"] <= 1.6

@@ -68,6 +68,7 @@ TOGETHER: dict[str, dict[str, Any]] = {
     "hole_xyz": {"hole_from_home": False, **HOLE},
     "hole_rpy": {"hole_from_home": False, **HOLE},
     "virtual_sensor": {"placement": "wrist"},
+    "joint_torques": {"placement": "wrist", "virtual_sensor": True},
     "urdf_file": URDF,
     "locked_joints": PANDA,
     "dynamic_compensation.urdf_file": {**URDF, "placement": "wrist"},
@@ -154,8 +155,8 @@ def _built(cls: Any, values: dict[str, Any]) -> Any:
             # very values under test), and the topics it uses (a subscription with its
             # reliability: the QoS it is given is the node's own)
             built = {k: v for k, v in vars(node).items() if not k.startswith("_")}
-            entities = [e.topic_name for e in node.publishers] + [
-                f"{e.topic_name} {e.qos_profile.reliability.name}" for e in node.subscriptions]
+            entities = [f"{e.topic_name} {e.qos_profile.reliability.name}"
+                        for e in (*node.publishers, *node.subscriptions)]
             return fingerprint({"node": built, "entities": sorted(entities)})
         finally:
             node.destroy_node()

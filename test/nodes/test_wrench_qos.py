@@ -18,20 +18,23 @@ from fbcc_ros.ros.convert import wrench_to_cdr
 from fbcc_ros.ros.executor import make_executor
 
 
-def _heard(wrench_qos: str, publisher_qos: str) -> int:
-    """How many of 200 readings, published with ``publisher_qos``, the node compensated."""
+def _heard(wrench_qos: str, publisher_qos: str, topic: str = topics.RAW_WRENCH,
+           wrench_topic: str = topics.RAW_WRENCH) -> int:
+    """How many of 200 readings, published with ``publisher_qos`` on ``topic``, the node
+    (``wrench_qos``, ``wrench_topic``) compensated."""
     context = rclpy.Context()
     rclpy.init(context=context)
     try:
         node = DynamicCompensationNode(
-            context=context, parameter_overrides=[Parameter("wrench_qos", value=wrench_qos)])
+            context=context, parameter_overrides=[Parameter("wrench_qos", value=wrench_qos),
+                                                  Parameter("wrench_topic", value=wrench_topic)])
         sensor = rclpy.create_node("ft_driver", context=context)
-        pub = sensor.create_publisher(WrenchStamped, topics.RAW_WRENCH,
+        pub = sensor.create_publisher(WrenchStamped, topic,
                                       topics.input_qos(publisher_qos))  # fmt: skip
         executor = make_executor(context)
         for n in (node, sensor):
             executor.add_node(n)
-        deadline = time.monotonic() + 3.0  # discovery: matched, or never will be
+        deadline = time.monotonic() + (3.0 if topic == wrench_topic else 1.0)  # discovery
         while pub.get_subscription_count() == 0 and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.01)
         for _ in range(200):
@@ -56,3 +59,11 @@ def test_a_best_effort_sensor_is_heard_only_when_told() -> None:
     assert _heard("best_effort", "best_effort") > 150
     assert _heard("best_effort", "reliable") > 150
     assert _heard("reliable", "reliable") > 150
+
+
+@pytest.mark.flaky(reruns=2)
+def test_the_wrench_is_read_where_wrench_topic_says() -> None:
+    """The LBR stack's estimated wrench comes on force_torque_broadcaster/wrench."""
+    lbr = "force_torque_broadcaster/wrench"
+    assert _heard("reliable", "reliable", topic=lbr, wrench_topic=lbr) > 150
+    assert _heard("reliable", "reliable", topic=topics.RAW_WRENCH, wrench_topic=lbr) == 0

@@ -67,6 +67,7 @@ CONTEXT: dict[str, dict[str, Any]] = {
     "payload.inertia": WRIST,
     "virtual_sensor": {**WRIST, "payload.mass": 0.0},
     "virtual_damping": {**WRIST, "virtual_sensor": True},
+    "joint_torques": {**WRIST, "payload.mass": 0.0, "virtual_sensor": True},
     "acceleration_lowpass_hz": WRIST,
     **{f"dynamic_compensation.{name}": WRIST for name in ("robot", "tool_xyz", "tool_rpy")},
     "hole_from_home": HOLE,
@@ -146,14 +147,19 @@ def _attempt(out: list[Any], call: Any, *args: Any) -> Any:
 def _compensation(values: dict[str, Any]) -> list[Any]:
     stage = compensation.CompensationStage(values)
     out: list[Any] = []
+    q = None
     for m in BAG.messages:
         if m.topic == "/joint_states" and stage.robot is not None:
             stamp, q, dq = joints_from_cdr(m.data, JOINTS)  # for any 7-joint model
-            _attempt(out, stage.joints, stamp, q, dq)
+            if not stage.measured:
+                _attempt(out, stage.joints, stamp, q, dq)
         elif m.topic == "/ft_sensor/raw":
             stamp, frame, wrench = wrench_from_cdr(m.data)
-            if stage.virtual:  # the joint torques such a wrench would leave: any 7 numbers do
-                result = _attempt(out, stage.torques, stamp, np.r_[wrench, wrench[0]])
+            torques = np.r_[wrench, wrench[0]]  # such a wrench's joint torques: any 7 do
+            if stage.measured:  # with the last joint state's positions
+                result = _attempt(out, stage.measured_torques, stamp, q, None, torques)
+            elif stage.virtual:
+                result = _attempt(out, stage.torques, stamp, torques)
             else:
                 result = _attempt(out, stage.reading, stamp, frame, wrench)
             if result is not None:
@@ -209,7 +215,8 @@ def _mock(values: dict[str, Any]) -> list[Any]:
     for i, m in enumerate(BAG.of("/joint_command")):
         _attempt(out, stage.cell.command, positions_from_cdr(m.data))
         sample = stage.cell.step(stage.dt)
-        out += [sample.q, sample.response]
+        arm = stage.arm_sensing(sample, estimate=True)
+        out += [sample.q, sample.response, arm.external, arm.measured, arm.estimated]
         for stamp, raw in stage.readings(i * stage.dt, sample.raw):
             out += [stamp, raw]
     return out
@@ -232,7 +239,12 @@ TRANSPORT = {
         "test/nodes/test_wrench_qos.py::test_a_best_effort_sensor_is_heard_only_when_told",
     **{f"{node}.description_timeout": _UNDESCRIBED
        for node in ("mock_cell", "dynamic_compensation", "kinematics")},
-    "mock_cell.conventions": _DESCRIBED,
+    "mock_cell.arm_sensing": ("test/nodes/test_stack_rehearsal.py::"
+                              "test_the_virtual_sensor_from_the_stacks_external_torques_assembles"),
+    "mock_cell.sensor_qos": ("test/nodes/test_stack_rehearsal.py::"
+                             "test_a_best_effort_ft_sensor_at_1khz_assembles"),
+    "dynamic_compensation.wrench_topic":
+        "test/nodes/test_wrench_qos.py::test_the_wrench_is_read_where_wrench_topic_says",
     "mock_cell.publish_description": _DESCRIBED,
     "kinematics.command_type":
         f"{_COMMANDED}test_a_one_period_trajectory_for_a_joint_trajectory_controller",

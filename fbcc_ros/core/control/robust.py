@@ -141,7 +141,7 @@ class RobustFbcc:
     def max_period(self) -> float:
         """The longest period [s] the law resolves (:meth:`RobustParams.check_rate`)."""
         p = self.params
-        return 1.0 / max(p.filter_frequency, p.bandwidth, p.depth_bandwidth)
+        return 1.0 / max(p.bandwidth, p.depth_bandwidth)
 
     def reset(self, features: ArrayLike) -> None:
         """Start an insertion from the measured features, shape (5,) or (N, 5)."""

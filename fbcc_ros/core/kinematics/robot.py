@@ -285,6 +285,10 @@ class RobotModel:
         accel = pin.getFrameClassicalAcceleration(self.model, self.data, fid, pin.LOCAL)
         return placement, velocity, accel
 
+    def gravity(self, q: ArrayLike) -> FloatArray:
+        """``g(q)``: the joint torques that hold the arm at ``q`` against gravity [N m]."""
+        return np.array(pin.computeGeneralizedGravity(self.model, self.data, self.check_joints(q)))
+
     def jacobian(
         self, q: ArrayLike, frame: str = PEG_FRAME, axes: Any = pin.LOCAL_WORLD_ALIGNED
     ) -> FloatArray:

@@ -36,6 +36,7 @@ from fbcc_ros.core.errors import InputError
 from fbcc_ros.core.kinematics.cell import CellKinematics
 from fbcc_ros.core.kinematics.ik import solve_ik
 from fbcc_ros.core.kinematics.robot import RobotModel
+from fbcc_ros.core.sim.arm_sensing import external_torques, wrench_at_frame
 from fbcc_ros.core.sim.scenario import Scenario
 
 #: The hole fixture on the mock sensor: 1.5 kg, its centre of mass 2 cm above the sensor.
@@ -112,6 +113,7 @@ class MockCell:
         self._noise = np.append(sc.noise, 0.0)  # no noise figure for mz
         self._rng = np.random.default_rng(sc.seed if seed is None else seed)
         self._alpha: dict[float, float] = {}
+        self._on_hole = np.zeros(6)  # the last step's wrench on the true hole, about its origin
 
     def preload(self) -> None:
         """Load the compiled contact kernel and IK step now, before the nodes freeze the heap
@@ -150,4 +152,14 @@ class MockCell:
         contact = self._to_sensor @ at_acting
         noise = self._noise * self._rng.standard_normal(6)
         raw = contact + self._weight + self._bias + noise
+        self._on_hole = at_origin
         return CellSample(self.q.copy(), (self.q - q_prev) / dt, raw, x, response)
+
+    def external_torques(self) -> FloatArray:
+        """The external joint torques the contact of the last step causes, ``J^T w`` (the
+        arm's own sensing: :mod:`fbcc_ros.core.sim.arm_sensing`) [N m]."""
+        if not self._on_hole.any():
+            return np.zeros(self.robot.nq)
+        flange = self.robot.flange_in_base(self.q)  # the hole's wrench on the peg: -w on the hole
+        on_peg = wrench_at_frame(-self._on_hole, self.truth.hole_in_base, flange)
+        return external_torques(self.robot, self.q, self.robot.flange_frame, on_peg)

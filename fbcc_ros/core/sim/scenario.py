@@ -12,8 +12,14 @@ controller     type: fbcc | admittance | none, or a list of them to compare (def
 initial        the unknown deviation of the hole: dx, dy [m], theta_x, theta_y [rad]
 insertion      depth (default: hole_depth) [m], speed (0.005) [m/s]
 sensor         noise: standard deviations of (Fx, Fy, Fz, Mx, My) [N, N·m] or 0
-               (default 0.05 N, 0.002 N·m); bias: (Fx, Fy, Fz, Mx, My) (default 0)
-robot          lag: time constant of the position-controlled robot [s] (0.005)
+               (default 0.05 N, 0.002 N·m); bias: (Fx, Fy, Fz, Mx, My) (default 0);
+               for the ROS cell: source, the wrench the compensation reads (ft_sensor: a
+               6-axis sensor under the hole; estimated: the LBR stack's estimate at its
+               flange; external_torques | measured_torques: our virtual sensor), and qos, the
+               F/T sensor's reliability (reliable | best_effort)
+robot          lag: time constant of the position-controlled robot [s] (0.005); for the ROS
+               cell: model (iiwa14), namespace (''), conventions (fbcc | lbr: the robot
+               stack the mock plays) and rate_hz (the stack's rate; sets rate_hz below)
 holder         the compliance of arm, sensor and gripper at the grip point (absent: rigid):
                lateral [N/m], angular [N·m/rad] (fbcc_ros/core/sim/holder.py has typical values)
 tolerance      success tolerances: offset [m] (2e-5), tilt [rad] (0.0035), depth [m] (1e-5),
@@ -71,6 +77,25 @@ class Tolerance:
     force: float = DEFAULT_TOLERANCE["force"]
 
 
+#: The wrench sources the ROS cell can use, and the F/T sensor's reliabilities.
+SOURCES = ("ft_sensor", "estimated", "external_torques", "measured_torques")
+CONVENTIONS = ("fbcc", "lbr")
+_NAMESPACE = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)*")
+
+
+@dataclasses.dataclass(frozen=True)
+class RosCell:
+    """The robot stack the ROS cell rehearses (``fbcc_bringup``; the simulator models the
+    contact, not the stack): the arm's model, the namespace and conventions of its stack, the
+    wrench source the compensation reads and the F/T sensor's reliability."""
+
+    model: str = "iiwa14"
+    namespace: str = ""
+    conventions: str = "fbcc"
+    source: str = "ft_sensor"
+    qos: str = "reliable"
+
+
 @dataclasses.dataclass(frozen=True)
 class Scenario:
     """A validated scenario (see the module doc for the keys)."""
@@ -89,6 +114,7 @@ class Scenario:
     seed: int
     name: str = "scenario"
     holder: Holder | None = None  # None: the peg held rigidly
+    cell: RosCell = RosCell()
 
     @property
     def law(self) -> str:
@@ -224,14 +250,16 @@ def validate(scenario: Any, name: str = "scenario") -> Scenario:
     speed = _number("insertion.speed", ins.get("speed", 5e-3), 0, _SPEED_MAX, "m/s", low_open=True)
     insertion = Insertion(depth, speed)
 
-    sen = _mapping("sensor", s.get("sensor", {}), ("noise", "bias"))
+    sen = _mapping("sensor", s.get("sensor", {}), ("noise", "bias", "source", "qos"))
     noise = _vector5("sensor.noise", sen.get("noise", list(DEFAULT_NOISE)), 100, "N, N·m")
     if np.any(noise < 0):
         raise ConfigError("sensor.noise", sen["noise"], "standard deviations >= 0")
     bias = _vector5("sensor.bias", sen.get("bias", 0), 1000, "N, N·m")
 
-    rob = _mapping("robot", s.get("robot", {}), ("lag",))
+    rob = _mapping("robot", s.get("robot", {}),
+                   ("lag", "model", "namespace", "conventions", "rate_hz"))  # fmt: skip
     lag = _number("robot.lag", rob.get("lag", DEFAULT_LAG), 0, 1, "s")
+    cell = _ros_cell(rob, sen)
 
     holder = None
     if "holder" in s:
@@ -259,6 +287,12 @@ def validate(scenario: Any, name: str = "scenario") -> Scenario:
     )
 
     rate = _number("rate_hz", s.get("rate_hz", 1000), 10, 1e5, "Hz")
+    if "rate_hz" in rob:
+        stack = _number("robot.rate_hz", rob["rate_hz"], 10, 1e5, "Hz")
+        if "rate_hz" in s and stack != rate:
+            raise ConfigError("robot.rate_hz", stack, f"the scenario's rate_hz ({rate:g} Hz) "
+                              "or only one of the two")  # fmt: skip
+        rate = stack
     duration = _number(
         "duration", s.get("duration", depth / speed + 2.0), 0, 3600, "s", low_open=True
     )
@@ -268,7 +302,34 @@ def validate(scenario: Any, name: str = "scenario") -> Scenario:
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ConfigError("seed", seed, "an integer >= 0")
     return Scenario(geometry, laws, params, initial, insertion, noise, bias, lag, tolerance,
-                    rate, duration, seed, name, holder)  # fmt: skip
+                    rate, duration, seed, name, holder, cell)  # fmt: skip
+
+
+def _choice(key: str, value: Any, choices: tuple[str, ...]) -> str:
+    if value not in choices:
+        raise ConfigError(key, value, f"one of {list(choices)}")
+    return str(value)
+
+
+def _ros_cell(robot: Mapping[str, Any], sensor: Mapping[str, Any]) -> RosCell:
+    """The robot and sensor keys of the ROS cell (module doc), checked together."""
+    from fbcc_ros.core.kinematics.robot import ROBOTS, RobotSpec
+
+    model = _choice("robot.model", robot.get("model", "iiwa14"), tuple(ROBOTS))
+    conventions = _choice("robot.conventions", robot.get("conventions", "fbcc"), CONVENTIONS)
+    namespace = robot.get("namespace", "")
+    if not isinstance(namespace, str) or not _NAMESPACE.fullmatch(namespace):
+        raise ConfigError("robot.namespace", namespace, "'' or a ROS namespace such as /lbr")
+    source = _choice("sensor.source", sensor.get("source", "ft_sensor"), SOURCES)
+    qos = _choice("sensor.qos", sensor.get("qos", "reliable"), ("reliable", "best_effort"))
+    spec: RobotSpec = ROBOTS[model]()
+    if conventions == "lbr" and spec.flange_frame != "iiwa_flange":
+        raise ConfigError("robot.model", model, "an LBR (iiwa7, iiwa14, med7, med14) with "
+                          "conventions lbr")  # fmt: skip
+    if source == "estimated" and conventions != "lbr":
+        raise ConfigError("sensor.source", source, "robot.conventions lbr with it (the LBR "
+                          "stack's estimated wrench)")  # fmt: skip
+    return RosCell(model, namespace, conventions, source, qos)
 
 
 class _Loader(yaml.SafeLoader):

@@ -1,0 +1,165 @@
+"""The nodes of a cell and their parameters, for the robot stack they run beside: one
+description for ``launch/fbcc_cell.launch.py``, ``fbcc_bringup`` (the hardware-free rehearsal)
+and the tests, which build the same node set from it without launch.
+
+A node's parameters are, in the order rcl applies them: its ``config/<node>.yaml`` (every
+default), the profile's file (``config/profiles/<profile>.yaml``: what the stack's interfaces
+need), the user's own file, then the values computed here (the mock's scenario, the hole under a
+built-in model's home for a rehearsal, the rate, the wrench source).
+
+Profiles:
+
+* ``fbcc``: our own topics, the mock's names (the defaults);
+* ``lbr``: beside lbr_fri_ros2_stack in ``/lbr``: the model from ``robot_description``, its
+  forward position controller, its estimated wrench at ``lbr_link_ee``, 100 Hz;
+* ``ros2_control``: beside any ros2_control arm with a forward position controller and a
+  best-effort wrist F/T sensor.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import pinocchio as pin
+
+from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.kinematics.cell import aligned_hole_at
+from fbcc_ros.core.kinematics.robot import RobotModel
+from fbcc_ros.core.param_files import file_parameters
+from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim.scenario import CONVENTIONS, SOURCES
+
+PROFILES = ("fbcc", "lbr", "ros2_control")
+#: The nodes of a cell, in the order they start (the mock first: it latches the model).
+NODES = ("mock_cell", "dynamic_compensation", "kinematics", "fbcc_controller")
+#: The compensation averages this long of readings into its bias at start (a rehearsal; the
+#: profiles for a real cell take a second).
+TARE_SECONDS = 0.2
+
+
+#: The compensation's parameters for each wrench source (scenario ``sensor.source``).
+SOURCE_PARAMETERS: dict[str, dict[str, Any]] = {
+    "ft_sensor": {"placement": "under_hole", "sensor_frame": "ft_sensor",
+                  "wrench_topic": "ft_sensor/raw"},
+    # the LBR stack's estimate at its flange, from KUKA's external torques
+    "estimated": {"placement": "wrist", "sensor_xyz": [0.0, 0.0, 0.0],
+                  "wrench_topic": "force_torque_broadcaster/wrench"},
+    # our virtual sensor at the flange
+    "external_torques": {"placement": "wrist", "sensor_xyz": [0.0, 0.0, 0.0],
+                         "virtual_sensor": True, "joint_torques": "external"},
+    "measured_torques": {"placement": "wrist", "sensor_xyz": [0.0, 0.0, 0.0],
+                         "virtual_sensor": True, "joint_torques": "measured"},
+}  # fmt: skip
+
+
+@dataclasses.dataclass(frozen=True)
+class CellSetup:
+    """What a cell is started with (the launch file's arguments).
+
+    Attributes:
+        profile: One of :data:`PROFILES`.
+        scenario: The mock's scenario file (with ``mock``); its ``robot`` and ``sensor``
+            sections say what the mock plays (model, rate, wrench source, F/T sensor QoS).
+        mock: Whether the hardware-free mock plays the robot and its sensors.
+        law: fbcc | admittance | none (empty: the scenario's).
+        namespace: Where the cell's nodes run ('' or /name).
+        params_file: The user's own parameter file (their hole, tool, sensor, payload).
+    """
+
+    profile: str = "fbcc"
+    scenario: str = "config/scenarios/bringup_interference.yaml"
+    mock: bool = True
+    law: str = ""
+    namespace: str = ""
+    params_file: str = ""
+
+
+@dataclasses.dataclass(frozen=True)
+class NodeConfig:
+    """One node: its executable (``fbcc_ros.nodes.<name>``, also its node name), the parameter
+    files it reads in order, and the values set after them."""
+
+    name: str
+    files: tuple[Path, ...]
+    parameters: dict[str, Any]
+
+    def merged(self) -> dict[str, Any]:
+        """All its parameters, as rcl would apply the files and then the values."""
+        return {**file_parameters(self.files, self.name), **self.parameters}
+
+
+def config_dir() -> Path:
+    """``config/`` of the source checkout, or of the installed package's share."""
+    here = Path(__file__).resolve().parents[2] / "config"
+    if here.is_dir():
+        return here
+    from ament_index_python.packages import get_package_share_directory
+
+    return Path(get_package_share_directory("fbcc_ros")) / "config"
+
+
+def profile_of(conventions: str) -> str:
+    """The profile our nodes use beside the stack a scenario's mock plays."""
+    return "lbr" if conventions == "lbr" else "fbcc"
+
+
+def cell_nodes(setup: CellSetup) -> list[NodeConfig]:
+    """The cell's nodes and their parameters (module doc)."""
+    if setup.profile not in PROFILES:
+        raise ConfigError("profile", setup.profile, f"one of {list(PROFILES)}")
+    path = str(scenario_io.find(setup.scenario))
+    sc = scenario_io.load(path)
+    cell = sc.cell
+    if setup.mock and profile_of(cell.conventions) != setup.profile:
+        raise ConfigError("profile", setup.profile, f"'{profile_of(cell.conventions)}' with "
+                          f"the scenario's robot.conventions '{cell.conventions}' (the stack "
+                          "the mock plays)")  # fmt: skip
+    if not setup.mock and not setup.params_file and setup.profile != "fbcc":
+        raise ConfigError("params_file", "", "your cell's parameter file (the hole's measured "
+                          "pose, the tool, the sensor) beside a real robot")  # fmt: skip
+    config = config_dir()
+    profile = () if setup.profile == "fbcc" else (config / "profiles" / f"{setup.profile}.yaml",)
+    user = (Path(setup.params_file),) if setup.params_file else ()
+    computed = _rehearsal(sc, path, setup) if setup.mock else {}
+    law = {"law": setup.law} if setup.law else {}
+    names = NODES if setup.mock else NODES[1:]
+    return [NodeConfig(name, (config / f"{name}.yaml", *profile, *user),
+                       {**computed.get(name, {}), **(law if name == "fbcc_controller" else {})})
+            for name in names]  # fmt: skip
+
+
+def _rehearsal(sc: scenario_io.Scenario, path: str, setup: CellSetup
+               ) -> dict[str, dict[str, Any]]:  # fmt: skip
+    """The values a hardware-free run sets: the mock's scenario and the stack it plays, the
+    hole under the model's home (a real cell measures it), the rate, the wrench source."""
+    from fbcc_ros.pipeline.mock_cell import FIXTURE_COM, FIXTURE_MASS, LBR_NAME
+
+    cell = sc.cell
+    lbr = cell.conventions == "lbr"
+    model = RobotModel.from_name(cell.model, lbr_name=LBR_NAME if lbr else "")
+    hole = aligned_hole_at(model.peg_in_base(model.home))
+    where = {"hole_from_home": False, "hole_xyz": hole.translation.tolist(),
+             "hole_rpy": pin.rpy.matrixToRpy(hole.rotation).tolist()}  # fmt: skip
+    robot = {"robot": "robot_description"} if lbr else {"robot": cell.model}
+    rate = {"rate_hz": sc.rate_hz}
+    tare = {"tare_samples": max(1, round(TARE_SECONDS * sc.rate_hz))}
+    compensation: dict[str, Any] = {**robot, **where, **tare, "wrench_qos": cell.qos,
+                                    "virtual_sensor": False, **SOURCE_PARAMETERS[cell.source]}
+    if cell.source == "ft_sensor":  # under the hole, carrying the mock's fixture
+        compensation.update(sensor_xyz=sc.geometry.acting_point_in_hole().tolist(),
+                            **{"payload.mass": FIXTURE_MASS, "payload.com": list(FIXTURE_COM)})
+    if cell.source == "estimated":
+        compensation["sensor_frame"] = model.flange_frame  # lbr_link_ee
+    return {
+        "mock_cell": {"scenario": path, "robot": cell.model, "conventions": cell.conventions,
+                      "sensor_qos": cell.qos, "arm_sensing": cell.source != "ft_sensor",
+                      **rate},
+        "dynamic_compensation": compensation,
+        "kinematics": {**robot, **where, **rate},
+        "fbcc_controller": {"scenario": path, **rate},
+    }
+
+
+__all__ = ["CONVENTIONS", "PROFILES", "SOURCES", "CellSetup", "NodeConfig", "cell_nodes"]
