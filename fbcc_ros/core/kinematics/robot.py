@@ -60,29 +60,20 @@ class RobotSpec:
     home: tuple[float, ...] = ()
 
 
-#: Robots known by name. The LBRs (iiwa 7 and 14, Med 7 and 14; our URDFs, same joint and flange
-#: names) share one home: the net pitch q2 - q4 + q6 = pi points the flange down.
+#: The LBRs (iiwa 7 and 14, Med 7 and 14): our URDFs share joint and flange names, and one
+#: home, where the net pitch q2 - q4 + q6 = pi points the flange down.
+LBRS = ("iiwa7", "iiwa14", "med7", "med14")
+LBR_HOME = (0.0, 0.5, 0.0, -1.5, 0.0, math.pi - 2.0, 0.0)
+
+
+def _lbr(name: str) -> Callable[[], RobotSpec]:
+    return lambda: RobotSpec(urdf=_URDF_DIR / f"{name}.urdf", flange_frame="iiwa_flange",
+                             home=LBR_HOME)  # fmt: skip
+
+
+#: Robots known by name.
 ROBOTS: dict[str, Callable[[], RobotSpec]] = {
-    "iiwa14": lambda: RobotSpec(
-        urdf=_URDF_DIR / "iiwa14.urdf",
-        flange_frame="iiwa_flange",
-        home=(0.0, 0.5, 0.0, -1.5, 0.0, math.pi - 2.0, 0.0),
-    ),
-    "iiwa7": lambda: RobotSpec(
-        urdf=_URDF_DIR / "iiwa7.urdf",
-        flange_frame="iiwa_flange",
-        home=(0.0, 0.5, 0.0, -1.5, 0.0, math.pi - 2.0, 0.0),
-    ),
-    "med7": lambda: RobotSpec(
-        urdf=_URDF_DIR / "med7.urdf",
-        flange_frame="iiwa_flange",
-        home=(0.0, 0.5, 0.0, -1.5, 0.0, math.pi - 2.0, 0.0),
-    ),
-    "med14": lambda: RobotSpec(
-        urdf=_URDF_DIR / "med14.urdf",
-        flange_frame="iiwa_flange",
-        home=(0.0, 0.5, 0.0, -1.5, 0.0, math.pi - 2.0, 0.0),
-    ),
+    **{name: _lbr(name) for name in LBRS},
     "panda": lambda: RobotSpec(
         urdf=_example_robot_data("panda_description/urdf/panda.urdf"),
         flange_frame="panda_link8",

@@ -313,7 +313,7 @@ def _choice(key: str, value: Any, choices: tuple[str, ...]) -> str:
 
 def _ros_cell(robot: Mapping[str, Any], sensor: Mapping[str, Any]) -> RosCell:
     """The robot and sensor keys of the ROS cell (module doc), checked together."""
-    from fbcc_ros.core.kinematics.robot import ROBOTS, RobotSpec
+    from fbcc_ros.core.kinematics.robot import LBRS, ROBOTS
 
     model = _choice("robot.model", robot.get("model", "iiwa14"), tuple(ROBOTS))
     conventions = _choice("robot.conventions", robot.get("conventions", "fbcc"), CONVENTIONS)
@@ -322,8 +322,7 @@ def _ros_cell(robot: Mapping[str, Any], sensor: Mapping[str, Any]) -> RosCell:
         raise ConfigError("robot.namespace", namespace, "'' or a ROS namespace such as /lbr")
     source = _choice("sensor.source", sensor.get("source", "ft_sensor"), SOURCES)
     qos = _choice("sensor.qos", sensor.get("qos", "reliable"), ("reliable", "best_effort"))
-    spec: RobotSpec = ROBOTS[model]()
-    if conventions == "lbr" and spec.flange_frame != "iiwa_flange":
+    if conventions == "lbr" and model not in LBRS:
         raise ConfigError("robot.model", model, "an LBR (iiwa7, iiwa14, med7, med14) with "
                           "conventions lbr")  # fmt: skip
     if source == "estimated" and conventions != "lbr":

@@ -72,6 +72,13 @@ _DELETE = object()
         (("seed",), 1.5, "seed", "integer"),
         (("duration",), 0.005, "duration", "control periods"),
         (("durration",), 3.0, "scenario.durration", "did you mean 'duration'?"),
+        (("robot", "model"), "kr6", "robot.model", "iiwa14"),
+        (("robot", "namespace"), "lbr", "robot.namespace", "/lbr"),
+        (("robot", "conventions"), "fri", "robot.conventions", "lbr"),
+        (("robot", "rate_hz"), 5.0, "robot.rate_hz", "Hz"),
+        (("sensor", "source"), "wrist", "sensor.source", "measured_torques"),
+        (("sensor", "qos"), "sensor_data", "sensor.qos", "best_effort"),
+        (("sensor", "source"), "estimated", "sensor.source", "conventions lbr"),
     ],
 )
 def test_bad_scenarios_name_key_value_and_expectation(
@@ -127,3 +134,18 @@ def test_laws_may_be_a_list_to_compare() -> None:
         _ = sc.law
     assert sc.with_law("admittance").law == "admittance"
     assert math.isfinite(sc.duration)
+
+
+def test_the_ros_cell_section_checks_its_keys_together() -> None:
+    s = _with(("robot", "conventions"), "lbr")
+    s["robot"]["model"] = "panda"
+    with pytest.raises(ConfigError, match=r"robot.model='panda'.*an LBR"):
+        validate(s)
+    s["robot"].update(model="med7", rate_hz=100, namespace="/lbr")
+    s["sensor"] = {"source": "estimated", "qos": "best_effort"}
+    sc = validate(s)
+    assert (sc.cell.model, sc.cell.namespace, sc.cell.source, sc.rate_hz) == (
+        "med7", "/lbr", "estimated", 100.0)
+    s["rate_hz"] = 250
+    with pytest.raises(ConfigError, match=r"robot.rate_hz=100.*250 Hz"):
+        validate(s)
