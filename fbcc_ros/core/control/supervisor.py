@@ -48,12 +48,16 @@ MAX_PERIODS = 10
 @dataclasses.dataclass(frozen=True)
 class SafetyLimits:
     """Attributes:
-    timeout: Longest gap between features or wrenches before a fault [s].
+    timeout: Longest gap between features or wrenches before a fault [s]. Commands stop
+        with the inputs anyway (one per compensated wrench), so the gap bounds how long a
+        dead input goes unnamed, not how far the arm moves blind; 0.25 s rides over the
+        stalls of nodes as processes on a shared machine (51 ms faulted a run at 0.05 s,
+        docs/nodes.md) while a dead driver is named within a quarter second.
     max_step: Largest change of dx, dy or l per command [m].
     max_step_angle: Largest change of theta_x or theta_y per command [rad].
     """
 
-    timeout: float = 0.05
+    timeout: float = 0.25
     max_step: float = 5e-5
     max_step_angle: float = 1e-3
 

@@ -41,7 +41,7 @@ def _start(sup: Supervisor, now: float) -> tuple[bool, str]:
 def test_idle_until_armed_then_started_then_inserting() -> None:
     """``idle`` until both inputs are recent (``armed``), back to ``idle`` when one goes stale;
     a start is refused with what is missing, accepted when armed."""
-    sup = _supervisor()
+    sup = _supervisor(timeout=0.05)
     assert sup.start(0.0) == (False, "no recent features: is the kinematics node running?")
     sup.on_features(0.0, np.zeros(5))
     ok, why = sup.start(0.0)
@@ -78,7 +78,7 @@ def test_faults_hold_and_say_why(event, reason, holds) -> None:
     """A fault stops the insertion with its reason and holds where the arm is: the measured
     features while they are fresh (the arm does not go on to a command it has not reached),
     else the last command."""
-    sup = _supervisor()
+    sup = _supervisor(timeout=0.05)
     sup.on_features(0.0, np.zeros(5))
     _start(sup, 0.0)
     last = sup.on_response(0.0005, np.zeros(5))
