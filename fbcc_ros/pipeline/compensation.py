@@ -38,8 +38,8 @@ TABLE = (
     Param("payload.inertia", [0.0] * 9, "its inertia about the centre of mass, row-major",
           "kg m^2"),
     Param("bias", [0.0] * 6, "sensor bias (fx, fy, fz, tx, ty, tz)", "N, N m"),
-    Param("tare_samples", 0, "average this many readings into the bias at start-up (0: off); "
-          "no contact meanwhile", "", 0, 1_000_000),
+    Param("tare_samples", 200, "average this many readings into the bias at start-up (0: off); "
+          "the arm still and out of contact meanwhile", "", 0, 1_000_000),
     Param("lowpass_hz", 0.0, "output low-pass cut-off (0: off)", "Hz", 0.0, 10000.0,
           read_only=False),
     Param("deadband", [0.0, 0.0], "output dead band [force, moment]", "N, N m",

@@ -27,7 +27,8 @@ def _heard(wrench_qos: str, publisher_qos: str, topic: str = topics.RAW_WRENCH,
     try:
         node = DynamicCompensationNode(
             context=context, parameter_overrides=[Parameter("wrench_qos", value=wrench_qos),
-                                                  Parameter("wrench_topic", value=wrench_topic)])
+                                                  Parameter("wrench_topic", value=wrench_topic),
+                                                  Parameter("tare_samples", value=0)])
         sensor = rclpy.create_node("ft_driver", context=context)
         pub = sensor.create_publisher(WrenchStamped, topic,
                                       topics.input_qos(publisher_qos))  # fmt: skip

@@ -38,7 +38,10 @@ BAG = read_bag(ROOT / "test" / "data" / "bags" / "short_interference")
 JOINTS = ("iiwa_joint_1", "iiwa_joint_2", "iiwa_joint_3", "iiwa_joint_4", "iiwa_joint_5",
           "iiwa_joint_6", "iiwa_joint_7")  # fmt: skip
 ROBUST = str(ROOT / "config" / "scenarios" / "robust_interference.yaml")
-WRIST = {"placement": "wrist", "sensor_xyz": [0.0, 0.0, 0.03], "payload.mass": 0.8,
+#: A wrist sensor reading the recorded under-hole wrenches (no tare: it would take the hole's
+#: load on a sensor that never carried it, and be refused).
+WRIST = {"placement": "wrist", "tare_samples": 0, "sensor_xyz": [0.0, 0.0, 0.03],
+         "payload.mass": 0.8,
          "payload.com": [0.0, 0.01, 0.05],
          "payload.inertia": [2e-3, 0, 0, 0, 2e-3, 0, 0, 0, 1e-3]}  # fmt: skip
 HOLE = {"hole_xyz": [0.575, 0.0, 0.336], "hole_rpy": [0.0, 0.0, math.pi]}
@@ -75,6 +78,7 @@ CONTEXT: dict[str, dict[str, Any]] = {
     "hole_rpy": {"hole_from_home": False, "hole_xyz": HOLE["hole_xyz"]},
     "estimate_rate_hz": {"scenario": ROBUST},
     "guard.max_tare": {"tare_samples": 50},
+    "bias": {"tare_samples": 0},  # a tare measures the bias in its place
     "guard.stop_margin": {"guard.force_limit": 20.0},
     "fault_retract": {"timeout": 0.01},  # the features' 30 ms gap faults
 }
