@@ -9,3 +9,9 @@ echo "== mypy (the whole package)"; .venv/bin/mypy
 echo "== benchmark (short mode: proves it runs; figures are only meaningful in full mode)"
 .venv/bin/python -m fbcc_ros.cli.bench --short
 echo "== pytest"; .venv/bin/python -m pytest "$@"
+# the launch file with the real Jazzy `ros2 launch`, built from the sources ../shared carries
+# (not a dependency of the package: skipped where they are not)
+if [ -f ../shared/ros2cli.sh ] && [ $# -eq 0 ]; then
+  echo "== ros2 launch (the real Jazzy CLI, ../shared/ros2cli.sh)"
+  ( set +eu; . ../shared/ros2cli.sh && .venv/bin/python -m pytest test/test_launch_file.py )
+fi
