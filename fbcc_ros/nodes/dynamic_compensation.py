@@ -34,6 +34,9 @@ from fbcc_ros.ros.robot_description import description_for
 
 __all__ = ["TABLE", "DynamicCompensationNode"]
 
+#: How often ``wrench_qos: match`` looks for the input's publishers [s].
+MATCH_PERIOD = 0.1
+
 
 class DynamicCompensationNode(Node):
     def __init__(self, **kwargs: Any) -> None:
@@ -49,20 +52,41 @@ class DynamicCompensationNode(Node):
                                 latched=True)
         self.create_subscription(String, topics.REARM, self.on_rearm, 10)
         self._publish_bias(self.get_clock().now().nanoseconds * 1e-9)
-        sub = self.create_subscription  # raw: CDR bytes, decoded by fbcc_ros.ros.convert
-        qos = topics.input_qos(values["wrench_qos"])  # a transport setting: the stage has none
+        # the wrench's input (its QoS a transport setting: the stage has none)
         if self.stage.measured:  # the joint states carry the torques: one input, its QoS
-            sub(JointState, topics.JOINT_STATES, self.on_measured, qos, raw=True)
-        elif self.stage.robot is not None:
-            sub(JointState, topics.JOINT_STATES, self.on_joints, 10, raw=True)
-        if self.stage.virtual and not self.stage.measured:
-            sub(JointState, topics.EXTERNAL_TORQUES, self.on_torques, qos, raw=True)
-        elif not self.stage.virtual:
-            sub(WrenchStamped, values["wrench_topic"], self.on_raw, qos, raw=True)
+            wrench_input = (JointState, topics.JOINT_STATES, self.on_measured)
+        elif self.stage.virtual:
+            wrench_input = (JointState, topics.EXTERNAL_TORQUES, self.on_torques)
+        else:
+            wrench_input = (WrenchStamped, values["wrench_topic"], self.on_raw)
+        if self.stage.robot is not None and not self.stage.measured:
+            self.create_subscription(JointState, topics.JOINT_STATES, self.on_joints, 10,
+                                     raw=True)  # fmt: skip
+        self._input = wrench_input
+        if values["wrench_qos"] == "match":  # subscribed once a publisher is seen
+            self._matching = self.create_timer(MATCH_PERIOD, self._match)
+        else:
+            self._subscribe(values["wrench_qos"])
         counts = self.stage.comp.counts
         rejected = tuple(k for k in counts if k not in ("accepted", "taring"))
         publish_diagnostics(self, counter_report(lambda: self.stage.comp.counts, rejected,
                                                  "samples"))  # fmt: skip
+
+    def _subscribe(self, reliability: str) -> None:
+        kind, topic, callback = self._input  # raw: CDR bytes, decoded by fbcc_ros.ros.convert
+        self.create_subscription(kind, topic, callback, topics.input_qos(reliability), raw=True)
+
+    def _match(self) -> None:
+        """``wrench_qos: match``: subscribes with the reliability of the input's publishers
+        once one is seen (``topics.matching_reliability``), and says which."""
+        name = self.resolve_topic_name(self._input[1])
+        offered = [info.qos_profile for info in self.get_publishers_info_by_topic(name)]
+        if not offered:
+            return
+        self._matching.cancel()
+        reliability = topics.matching_reliability(offered)
+        self._subscribe(reliability)
+        self.get_logger().info(f"{name}: subscribed {reliability}, as its publishers offer")
 
     @property
     def _names(self) -> tuple[str, ...]:

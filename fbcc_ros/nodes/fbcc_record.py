@@ -82,10 +82,11 @@ class FbccRecordNode(Node):
 
     @staticmethod
     def _subscription_qos(offered: list[QoSProfile]) -> QoSProfile:
-        """Deep enough for bursts; the first publisher's reliability and durability (a
-        reliable subscription would not match a best-effort publisher)."""
-        return QoSProfile(depth=1000, reliability=offered[0].reliability,
-                          durability=offered[0].durability)  # fmt: skip
+        """Deep enough for bursts; the publishers' reliability (``topics.matching_reliability``)
+        and the first one's durability (a latched topic's last message comes too)."""
+        qos = topics.input_qos(topics.matching_reliability(offered), depth=1000)
+        qos.durability = offered[0].durability
+        return qos
 
     def _writer(self, name: str) -> Any:
         write = self.bag.write

@@ -46,10 +46,10 @@ TABLE = (
           read_only=False),
     Param("wrench_topic", "ft_sensor/raw", "where the raw wrench comes from (e.g. "
           "force_torque_broadcaster/wrench, the LBR stack's estimate)"),
-    Param("wrench_qos", "reliable", "reliability of the raw wrench (or external torques) "
+    Param("wrench_qos", "reliable", "reliability of the raw wrench (or joint torques) "
           "subscription: best_effort for a driver publishing sensor-data QoS, which a reliable "
-          "subscription never hears (a best-effort one hears both)",
-          choices=("reliable", "best_effort")),
+          "subscription never hears (a best-effort one hears both); match: its publishers', "
+          "subscribed once one is seen", choices=("reliable", "best_effort", "match")),
     Param("virtual_sensor", False, "wrench from the arm's joint torques instead of a sensor"),
     Param("joint_torques", "external", "the virtual sensor's torques: external (the arm's "
           "estimate, effort of external_joint_torques) or measured (effort of joint_states, less "

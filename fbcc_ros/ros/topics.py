@@ -1,5 +1,7 @@
 """Topic and service names, relative so that a namespace or a remap moves a whole cell."""
 
+from collections.abc import Sequence
+
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 JOINT_STATES = "joint_states"
@@ -46,9 +48,22 @@ TRUTH_FIELDS = ("stamp", "dx", "dy", "l", "theta_x", "theta_y", "Fx", "Fy", "Fz"
 PHASE_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
+#: A sensor input's reliability: ``reliable`` (ours and most ROS publishers), ``best_effort``
+#: for a driver publishing sensor-data QoS, which a reliable subscription never matches (a
+#: best-effort one hears both), or ``match``: its publishers', once one is seen
+#: (:func:`matching_reliability`).
+RELIABILITIES = ("reliable", "best_effort", "match")
+
+
 def input_qos(reliability: str, depth: int = 10) -> QoSProfile:
-    """A sensor input's subscription QoS: ``reliable`` (ours and most ROS publishers), or
-    ``best_effort`` for a driver publishing sensor-data QoS, which a reliable subscription never
-    matches (a best-effort one hears both)."""
+    """A sensor input's subscription QoS, ``reliable`` or ``best_effort``."""
     policy = {"reliable": ReliabilityPolicy.RELIABLE, "best_effort": ReliabilityPolicy.BEST_EFFORT}
     return QoSProfile(depth=depth, reliability=policy[reliability])
+
+
+def matching_reliability(offered: Sequence[QoSProfile]) -> str:
+    """The reliability a subscription to these publishers takes: ``reliable`` only when every
+    one of them is (a reliable subscription never hears a best-effort publisher; a best-effort
+    one hears both)."""
+    reliable = all(q.reliability == ReliabilityPolicy.RELIABLE for q in offered)
+    return "reliable" if reliable else "best_effort"

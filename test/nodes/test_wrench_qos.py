@@ -60,6 +60,9 @@ def test_a_best_effort_sensor_is_heard_only_when_told() -> None:
     assert _heard("best_effort", "best_effort") > 150
     assert _heard("best_effort", "reliable") > 150
     assert _heard("reliable", "reliable") > 150
+    # the publishers', whichever they are
+    assert _heard("match", "best_effort") > 150
+    assert _heard("match", "reliable") > 150
 
 
 @pytest.mark.flaky(reruns=2)
