@@ -72,6 +72,7 @@ def test_the_virtual_sensor_gives_back_the_wrench_on_the_hole(pressed, torques: 
     # the arm under the LBR stack's names, from the description the mock latches
     values = resolve("dynamic_compensation", COMPENSATION, {
         "robot": "robot_description", "placement": "wrist", "virtual_sensor": True,
+        "tare_samples": 0,
         "joint_torques": torques, "virtual_damping": 0.0, "sensor_xyz": [0.0, 0.0, 0.0],
         "hole_from_home": False, "hole_xyz": hole.translation.tolist(),
         "hole_rpy": pin.rpy.matrixToRpy(hole.rotation).tolist()})  # fmt: skip
