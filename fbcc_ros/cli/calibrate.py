@@ -4,7 +4,8 @@ dynamic_compensation node loads.
     fbcc-calibrate DATA.csv|DATA.npz --out payload.yaml [--dynamic]
                    [--robot iiwa14 [--sensor-xyz X Y Z --sensor-rpy R P Y]]
                    [--max-condition 1000] [--plot residual.png]
-    fbcc-calibrate BAG --robot iiwa14 --out payload.yaml [--dynamic]
+    fbcc-calibrate BAG [--robot iiwa14 | --flange-frame LINK --locked-joints J ...]
+                   --out payload.yaml [--dynamic]
                    [--joint-states joint_states] [--wrench ft_sensor/raw]
                    [--dwell-speed 0.01] [--min-dwell 0.3] [--sensor-xyz ... --sensor-rpy ...]
 
@@ -19,8 +20,12 @@ DATA holds one sample per row (CSV, with a header) or one 1-D array per name (np
   ``--robot``, the time ``t`` [s] and the joint velocities ``v_<joint>``, differentiated once.
 
 A BAG (a rosbag2 folder with its .mcap, or an .mcap file) of the arm moving through poses, as a
-real cell records it, needs ``--robot``. It is read on two topics, each given relative
-(``joint_states``), absolute (``/joint_states``) or with its namespace (``/lbr/joint_states``):
+real cell records it (or ``fbcc_bringup --calibration-motion`` on the mock), takes the arm's
+model from ``--robot``, or else from the URDF the bag recorded on its ``robot_description``
+(std_msgs/String, under any namespace; ``--flange-frame`` names the link the sensor is on when
+the chain has several tips, ``--locked-joints`` a gripper's joints). It is read on two topics,
+each given relative (``joint_states``), absolute (``/joint_states``) or with its namespace
+(``/lbr/joint_states``):
 
 * ``--joint-states`` (sensor_msgs/JointState): matched to the robot's joints by name, in any
   order, extra joints ignored;
@@ -65,6 +70,7 @@ from fbcc_ros.core.compensation.payload import (
 )
 from fbcc_ros.core.errors import InputError, command
 from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel, pose
+from fbcc_ros.ros.cdr import decode_string
 from fbcc_ros.ros.convert import joints_from_cdr, wrench_from_cdr
 
 WRENCH = ("fx", "fy", "fz", "tx", "ty", "tz")
@@ -100,6 +106,19 @@ def _parser() -> argparse.ArgumentParser:
         default=RAW_WRENCH,
         metavar="TOPIC",
         help=f"geometry_msgs/WrenchStamped topic, in the sensor frame (default {RAW_WRENCH})",
+    )
+    bag.add_argument(
+        "--flange-frame",
+        default="",
+        metavar="LINK",
+        help="without --robot: the link the sensor is mounted on (default: the chain's tip)",
+    )
+    bag.add_argument(
+        "--locked-joints",
+        nargs="+",
+        default=[],
+        metavar="JOINT",
+        help="without --robot: joints of the description held at zero (a gripper's)",
     )
     bag.add_argument(
         "--dwell-speed",
@@ -362,12 +381,37 @@ def _rate(t: np.ndarray) -> str:
     return f"{1 / step:.4g} Hz" if step > 0 else "one stamp"
 
 
+DESCRIPTION_TYPE = "std_msgs/msg/String"
+
+
+def bag_robot(args: argparse.Namespace, bag: Bag) -> tuple[RobotModel, str]:
+    """The arm of ``--robot``, or of the URDF the bag latched on its robot_description; and
+    where it came from, for the report."""
+    if args.robot:
+        if args.flange_frame or args.locked_joints:
+            raise InputError("--flange-frame/--locked-joints", args.flange_frame or
+                             args.locked_joints, f"none with --robot {args.robot} (a built-in "
+                             "model names its own)")  # fmt: skip
+        return _robot(args), f"model {args.robot}"
+    latched = [t for t, k in sorted(bag.topics.items())
+               if t.endswith("/robot_description") and _same_type(k, DESCRIPTION_TYPE)
+               and bag.counts[t]]  # fmt: skip
+    if len(latched) != 1:
+        why = ("the bag holds no robot_description" if not latched
+               else f"the bag holds several robot_descriptions {latched}")  # fmt: skip
+        raise InputError("--robot", None, f"one of {sorted(ROBOTS)} to read this bag: its "
+                         f"joint names, and the sensor's orientation by FK ({why} to take the "
+                         "model from)")  # fmt: skip
+    text = decode_string(next(iter(bag.of(latched[0]))).data)
+    robot = RobotModel(text, args.flange_frame, None, args.locked_joints, name=latched[0])
+    robot.add_frame(SENSOR_FRAME, pose(args.sensor_xyz, args.sensor_rpy))
+    return robot, (f"model from {latched[0]} ({robot.nq} joints, the sensor on "
+                   f"{robot.flange_frame})")  # fmt: skip
+
+
 def _main_bag(args: argparse.Namespace) -> int:
-    if not args.robot:
-        raise InputError("--robot", None, f"one of {sorted(ROBOTS)} to read a bag: its joint "
-                         "names, and the sensor's orientation by FK")  # fmt: skip
-    robot = _robot(args)
     bag = read_bag(args.data)
+    robot, model = bag_robot(args, bag)
     joint_topic = bag_topic(bag, args.joint_states, JOINT_STATE_TYPE, "--joint-states")
     wrench_topic = bag_topic(bag, args.wrench, WRENCH_TYPE, "--wrench")
     joints, readings, frames = bag_series(bag, joint_topic, wrench_topic, robot)
@@ -377,6 +421,7 @@ def _main_bag(args: argparse.Namespace) -> int:
         else "no velocities: differentiated from the positions"
     )
     lines = [
+        model,
         f"read {joint_topic} ({len(joints.t)} joint states, {_rate(joints.t)}, {velocity}), "
         f"{wrench_topic} ({len(readings.t)} readings, {_rate(readings.t)}, frame "
         + ", ".join(f"'{f}'" for f in frames)

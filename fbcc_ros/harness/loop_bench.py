@@ -131,7 +131,13 @@ def measure(
 def _measure(
     chain: str, seconds: float, processes: bool, path: str, bag: Path | None, chained: bool
 ) -> LoopFigures:
-    from fbcc_ros.nodes.bringup import cell_nodes, recorder, start_insertion, wait_recording
+    from fbcc_ros.nodes.bringup import (
+        cell_nodes,
+        recorded_topics,
+        recorder,
+        start_insertion,
+        wait_recording,
+    )
 
     sc = scenario_io.load(path)
     specs = cell_nodes(path, sc, "fbcc", processes=processes)
@@ -146,7 +152,7 @@ def _measure(
         specs.append(recorder(bag))
     with CellRun(specs, processes=processes, probe=True, chain=chained) as run:
         if bag is not None:
-            wait_recording(run, timeout=30.0)
+            wait_recording(run, 30.0, recorded_topics("fbcc"))
         if chain == "bare":
             run.spin_until(lambda: len(run.observer.latency) > 100, 10.0, "no TCP command")
         else:

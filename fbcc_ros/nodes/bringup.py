@@ -2,6 +2,7 @@
 
     fbcc_bringup [SCENARIO.yaml] [--law fbcc|admittance|none] [--out DIR] [--draw-geometry]
                  [--seed N] [--processes] [--bag FOLDER | --no-record]
+    fbcc_bringup [SCENARIO.yaml] --calibration-motion [--poses N] [--out DIR] [--bag FOLDER]
 
 Starts the four nodes (mock_cell, dynamic_compensation, kinematics, fbcc_controller) in one
 process on rclpy's EventsExecutor, or with ``--processes`` each in its own process, over real
@@ -15,7 +16,10 @@ without ``--out``), or into ``--bag``; the insertion starts only once the record
 topic, and the summary says what the bag holds. Exit status 0 when the assembly succeeded, 1
 when it did not (or the controller faulted), 2 on bad input or a cell that does not come up.
 With ``--fault NAME`` the run is a fault drill (:mod:`fbcc_ros.harness.fault_drill`): exit 0
-when the cell ended safe with the outcome the fault calls for, 1 otherwise.
+when the cell ended safe with the outcome the fault calls for, 1 otherwise. With
+``--calibration-motion`` the mock's arm moves through calibration poses instead, recorded, and
+``fbcc-calibrate`` fits its wrist sensor's payload and bias from the bag
+(:mod:`fbcc_ros.harness.calibration_run`): exit 0 when the fit was accepted.
 """
 
 from __future__ import annotations
@@ -74,6 +78,17 @@ def _parser() -> argparse.ArgumentParser:
         help="a fault drill: inject the fault NAME into the running cell and say whether it "
         "ended safe (exit 0) or not (1); 'list' lists them",
     )
+    calibration = parser.add_argument_group("a calibration motion")
+    calibration.add_argument(
+        "--calibration-motion",
+        action="store_true",
+        help="instead of an assembly: move the mock's arm through calibration poses, its "
+        "wrist F/T sensor carrying the tool, record the joint states and the readings, and fit "
+        "the payload and bias from the bag with fbcc-calibrate (as a real cell would)",
+    )
+    calibration.add_argument(
+        "--poses", type=int, default=12, metavar="N",
+        help="how many poses the motion holds (3 to 30; default 12)")  # fmt: skip
     parser.add_argument(
         "--wait-for-recorder",
         action="store_true",
@@ -135,21 +150,23 @@ def command_topic(conventions: str) -> str:
     return topics.LBR_COMMAND if conventions == "lbr" else topics.JOINT_COMMAND
 
 
-def recorder(bag: Path, conventions: str = "fbcc", namespace: str = "") -> NodeSpec:
-    """The cell's recorder, in its own process, writing ``bag``."""
+def recorder(bag: Path, conventions: str = "fbcc", namespace: str = "",
+             recorded: list[str] | None = None) -> NodeSpec:  # fmt: skip
+    """The cell's recorder, in its own process, writing ``bag``: ``recorded`` (default
+    :func:`recorded_topics` of the stack the mock plays)."""
     from fbcc_ros.nodes.fbcc_record import FbccRecordNode
 
-    return NodeSpec("fbcc_record", FbccRecordNode,
-                    {"out": str(bag), "topics": recorded_topics(conventions)},
+    recorded = recorded_topics(conventions) if recorded is None else recorded
+    return NodeSpec("fbcc_record", FbccRecordNode, {"out": str(bag), "topics": recorded},
                     own_process=True, namespace=namespace)  # fmt: skip
 
 
-def wait_recording(run: CellRun, timeout: float, conventions: str = "fbcc") -> None:
-    """Waits until the recorder subscribes every topic it records, and, for the nodes in this
-    process, until their publishers have matched it: a subscription seen in the graph is not
-    yet matched by the publisher, and what it publishes meanwhile is lost (the first 30 ms of
-    commands, once). Nothing of the insertion is lost."""
-    names = [run.observer.resolve_topic_name(t) for t in recorded_topics(conventions)]
+def wait_recording(run: CellRun, timeout: float, recorded: list[str]) -> None:
+    """Waits until the recorder subscribes every topic of ``recorded``, and, for the nodes in
+    this process, until their publishers have matched it: a subscription seen in the graph is
+    not yet matched by the publisher, and what it publishes meanwhile is lost (the first 30 ms
+    of commands, once). Nothing of the insertion is lost."""
+    names = [run.observer.resolve_topic_name(t) for t in recorded]
     graph = run.observer.get_subscriptions_info_by_topic
     publishers = [p for node in run.nodes.values() for p in node.publishers
                   if p.topic_name in names]  # fmt: skip
@@ -247,7 +264,7 @@ def run_cell(
     with CellRun(specs, processes=processes, log_dir=log_dir, namespace=sc.cell.namespace,
                  command_topic=command_topic(sc.cell.conventions)) as run:
         if bag is not None or wait_for_recorder:
-            wait_recording(run, timeout=30.0, conventions=sc.cell.conventions)
+            wait_recording(run, 30.0, recorded_topics(sc.cell.conventions))
         if fault:
             kinematics = run.nodes["kinematics"].stage
             meter = StepMeter(run.observer, kinematics.cell.robot.velocity_limit, kinematics.dt)
@@ -314,6 +331,10 @@ def _bag_said(drill: dict[str, Any]) -> str:
 @command("fbcc_bringup")
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
+    if args.calibration_motion:
+        from fbcc_ros.harness.calibration_run import bringup_calibration
+
+        return bringup_calibration(args)
     if args.fault == "list":
         print(describe())
         return 0

@@ -5,10 +5,12 @@ scenario's lag, within its limits, and publishes ``joint_states`` at ``rate_hz``
 under the true hole publishes ``ft_sensor/raw`` (WrenchStamped) for the same instant: the
 contact of the true geometry (optionally drawn from Table II's tolerances, unknown to the
 controller) at the scenario's unknown hole deviation, plus the fixture's weight, the bias and
-the noise; the ``sensor_fault`` parameter, set while it runs, passes the readings through a
-sensor fault to rehearse (``core.sim.sensor_faults``). For scoring, it also publishes the true
-features and response of each tick on ``mock_cell/truth`` (Float64MultiArray, fields in
-``topics.TRUTH_FIELDS``) while anyone listens. The plant is
+the noise. With ``wrist_sensor``, a 6-axis sensor at the flange carrying the tool publishes
+``wrist_sensor/raw`` too (``core.sim.wrist_sensor``). The ``sensor_fault`` parameter, set while
+it runs, passes the readings through a sensor fault to rehearse (``core.sim.sensor_faults``).
+For scoring, it also publishes the true features and response of each tick on
+``mock_cell/truth`` (Float64MultiArray, fields in ``topics.TRUTH_FIELDS``) while anyone
+listens. The plant is
 :class:`fbcc_ros.core.sim.mock_cell.MockCell`. One node holds both roles because the sensor
 reads the arm's state of the same step.
 """
@@ -25,6 +27,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 
 from fbcc_ros.core.errors import FbccError
+from fbcc_ros.core.sim.wrist_sensor import WRIST_FRAME
 from fbcc_ros.pipeline.kinematics import needs_description
 from fbcc_ros.pipeline.mock_cell import TABLE, MockStage
 from fbcc_ros.ros import topics
@@ -55,6 +58,9 @@ class MockCellNode(Node):
         # the stack's estimated wrench, at its flange (lbr_link_ee)
         self.pub_estimated = (self.create_publisher(WrenchStamped, topics.LBR_WRENCH, 10)
                               if self.lbr and self.arm_sensing else None)  # fmt: skip
+        self.pub_wrist = (self.create_publisher(WrenchStamped, topics.WRIST_WRENCH,
+                                                topics.input_qos(values["sensor_qos"]))
+                          if self.stage.wrist is not None else None)  # fmt: skip
         self.pub_truth = self.create_publisher(Float64MultiArray, topics.TRUTH, 100)
         # raw: CDR bytes, decoded by fbcc_ros.ros.convert (no rclpy message objects at 1 kHz)
         sub = self.create_subscription
@@ -116,6 +122,9 @@ class MockCellNode(Node):
                     arm.estimated, self.cell.robot.flange_frame, now))  # fmt: skip
         for stamp, raw in self.stage.readings(now, sample.raw):
             self.pub_raw.publish(wrench_to_cdr(raw, self.frame, stamp))
+        wrist = self.stage.wrist_reading(sample)
+        if self.pub_wrist is not None and wrist is not None:
+            self.pub_wrist.publish(wrench_to_cdr(wrist, WRIST_FRAME, now))
         if self.pub_truth.get_subscription_count():
             row = [now, *sample.features.tolist(), *sample.response.tolist()]
             self.pub_truth.publish(encode_array(row, TRUTH_LAYOUT))

@@ -27,16 +27,39 @@ from fbcc_ros.core.kinematics.robot import pose
 from fbcc_ros.pipeline.kinematics import CELL, hole_from, robot_from
 from fbcc_ros.pipeline.parameters import Param
 
+
+def payload_params(prefix: str, mass: float, com: list[float], inertia: list[float]
+                   ) -> tuple[Param, ...]:  # fmt: skip
+    """The three parameters of what a sensor carries (``<prefix>.mass`` etc.), defaults given."""
+    return (
+        Param(f"{prefix}.mass", mass, "mass carried by the sensor", "kg", 0.0, 1000.0),
+        Param(f"{prefix}.com", com, "its centre of mass in the sensor frame", "m"),
+        Param(f"{prefix}.inertia", inertia, "its inertia about the centre of mass, row-major",
+              "kg m^2"),
+    )
+
+
+def payload_of(values: dict[str, Any], prefix: str) -> Payload:
+    """The :class:`Payload` of the ``<prefix>.*`` parameters (an error names them)."""
+    inertia = np.asarray(values[f"{prefix}.inertia"], dtype=float)
+    try:
+        return Payload(
+            values[f"{prefix}.mass"],
+            tuple(values[f"{prefix}.com"]),  # type: ignore[arg-type]
+            tuple(map(tuple, inertia.reshape(3, 3).tolist())) if inertia.size == 9 else inertia,  # type: ignore[arg-type]
+        )
+    except ConfigError as exc:  # the core names them payload.*
+        raise ConfigError(exc.field.replace("payload", prefix, 1), exc.value,
+                          exc.allowed) from None  # fmt: skip
+
+
 TABLE = (
     Param("placement", "under_hole", "where the sensor is", choices=("under_hole", "wrist")),
     Param("sensor_frame", "ft_sensor", "frame_id the raw readings must carry"),
     Param("sensor_xyz", [0.0, 0.0, -0.015], "sensor frame origin: in {H} (under_hole) or in the "
           "flange frame (wrist)", "m"),
     Param("sensor_rpy", [0.0, 0.0, 0.0], "sensor frame orientation, same parent", "rad"),
-    Param("payload.mass", 0.0, "mass carried by the sensor", "kg", 0.0, 1000.0),
-    Param("payload.com", [0.0, 0.0, 0.0], "its centre of mass in the sensor frame", "m"),
-    Param("payload.inertia", [0.0] * 9, "its inertia about the centre of mass, row-major",
-          "kg m^2"),
+    *payload_params("payload", 0.0, [0.0, 0.0, 0.0], [0.0] * 9),
     Param("bias", [0.0] * 6, "sensor bias (fx, fy, fz, tx, ty, tz)", "N, N m"),
     Param("tare_samples", 200, "average this many readings into the bias at start-up (0: off); "
           "the arm still and out of contact meanwhile", "", 0, 1_000_000),
@@ -83,18 +106,13 @@ def needs_robot(values: dict[str, Any]) -> bool:
 
 def setup_from(values: dict[str, Any], hole: pin.SE3) -> SensorSetup:
     """The sensor set-up of :data:`TABLE`'s values, the hole at ``hole`` (``T_base_H``)."""
-    inertia = np.asarray(values["payload.inertia"], dtype=float)
     return SensorSetup(
         placement=values["placement"],
         frame=values["sensor_frame"],
         pose=pose(values["sensor_xyz"], values["sensor_rpy"]),
         hole_in_base=hole,
         acting_point=(0.0, 0.0, 0.0),  # the {H} origin: the output is a wrench in frame hole
-        payload=Payload(
-            values["payload.mass"],
-            tuple(values["payload.com"]),  # type: ignore[arg-type]
-            tuple(map(tuple, inertia.reshape(3, 3).tolist())) if inertia.size == 9 else inertia,  # type: ignore[arg-type]
-        ),
+        payload=payload_of(values, "payload"),
         bias=tuple(values["bias"]),
         lowpass_hz=values["lowpass_hz"],
         deadband=tuple(values["deadband"]),  # type: ignore[arg-type]

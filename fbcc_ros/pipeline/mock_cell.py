@@ -17,6 +17,7 @@ import numpy as np
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.compensation.payload import Payload
 from fbcc_ros.core.contact.mapping_study import perturbed
+from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.filters import LowPass
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.arm_sensing import (
@@ -26,6 +27,8 @@ from fbcc_ros.core.sim.arm_sensing import (
 )
 from fbcc_ros.core.sim.mock_cell import CellSample, MockCell
 from fbcc_ros.core.sim.sensor_faults import SENSOR_FAULTS, Reading, SensorFault
+from fbcc_ros.core.sim.wrist_sensor import WristSensor
+from fbcc_ros.pipeline.compensation import payload_of, payload_params
 from fbcc_ros.pipeline.kinematics import CELL, cell_from
 from fbcc_ros.pipeline.parameters import Param
 
@@ -33,6 +36,13 @@ from fbcc_ros.pipeline.parameters import Param
 #: of mass in the sensor frame [m].
 FIXTURE_MASS = 1.5
 FIXTURE_COM = (0.0, 0.0, 0.02)
+
+#: The wrist sensor's defaults: a parallel gripper holding the peg (0.8 kg, its centre of mass
+#: 6 cm out along the flange's axis), a bias of the order a strain-gauge sensor drifts to, and
+#: the noise of a 6-axis sensor of the ATI Gamma class at 1 kHz.
+WRIST_PAYLOAD = (0.8, [0.004, -0.002, 0.06], [4e-3, 2e-4, 0.0, 2e-4, 3e-3, 0.0, 0.0, 0.0, 1.5e-3])
+WRIST_BIAS = [1.5, -0.7, 3.0, 0.05, -0.02, 0.01]
+WRIST_NOISE = [0.05, 0.05, 0.05, 0.002, 0.002, 0.002]
 
 #: The robot stacks the mock can play (:mod:`fbcc_ros.core.kinematics.lbr_names`).
 CONVENTIONS = ("fbcc", "lbr")
@@ -56,6 +66,14 @@ TABLE = (
           "without)"),
     Param("torque_noise", 0.05, "white noise (1 sigma) on each external joint torque, as the "
           "arm's torque sensing adds it", "N m", 0.0, 100.0),
+    Param("wrist_sensor", False, "also publish a 6-axis F/T sensor at the flange carrying the "
+          "tool (wrist_sensor/raw, frame wrist_sensor): what fbcc-calibrate fits, and a wrist "
+          "sensor's input to the compensation"),
+    *payload_params("wrist_payload", *WRIST_PAYLOAD),
+    Param("wrist_bias", WRIST_BIAS, "the wrist sensor's bias (fx, fy, fz, tx, ty, tz)",
+          "N, N m"),
+    Param("wrist_noise", WRIST_NOISE, "white noise (1 sigma) per component of the wrist sensor",
+          "N, N m"),
     Param("conventions", "fbcc", "the robot stack the mock plays: fbcc (our names) or lbr "
           "(lbr_fri_ros2_stack's joint and link names, its forward position controller's "
           "command topic)", choices=CONVENTIONS),
@@ -108,6 +126,10 @@ class MockStage:
         # the LBR stack low-passes the torques it publishes (arm_sensing)
         self._torque_lowpass = LowPass(LBR_TORQUE_CUTOFF_HZ if lbr else 0.0)
         self._rng = np.random.default_rng(seed + 1)  # its own stream: the sensor's stays as is
+        self.wrist = (WristSensor(robot, payload_of(values, "wrist_payload"),
+                                  _six(values, "wrist_bias"), _six(values, "wrist_noise", 0.0),
+                                  np.random.default_rng(seed + 2))
+                      if values["wrist_sensor"] else None)  # fmt: skip
         self.apply(values)
 
     def apply(self, values: dict[str, Any]) -> None:
@@ -128,7 +150,28 @@ class MockStage:
         return ArmReading(tau_ext, measured,
                           estimated_wrench(robot, sample.q, tau_ext, robot.flange_frame))
 
+    def wrist_reading(self, sample: CellSample) -> FloatArray | None:
+        """The wrist sensor's reading of ``sample``, the last step, in {S} (the flange's axes),
+        or None without one."""
+        if self.wrist is None:
+            return None
+        base = self.cell.on_peg_at_flange()
+        rotation = self.cell.robot.flange_in_base(sample.q).rotation
+        on_peg = np.concatenate([rotation.T @ base[:3], rotation.T @ base[3:]])
+        return self.wrist.reading(sample.q, sample.dq, self.dt, on_peg)
+
     def readings(self, stamp: float, raw: FloatArray) -> list[Reading]:
         """What the sensor delivers for the reading ``raw`` taken at ``stamp`` [s]: itself, or
         what the fault makes of it."""
         return self.fault.apply(stamp, raw) if self.fault else [(stamp, raw)]
+
+
+def _six(values: dict[str, Any], name: str, low: float = -np.inf) -> FloatArray:
+    """A (fx, fy, fz, tx, ty, tz) parameter: six finite numbers from ``low``, else a
+    ConfigError."""
+    out = np.asarray(values[name], dtype=float)
+    if out.shape != (6,) or not np.isfinite(out).all() or (out < low).any():
+        more = f" >= {low:g}" if low > -np.inf else ""
+        raise ConfigError(name, values[name], f"six finite numbers{more} (fx, fy, fz, tx, ty, "
+                          "tz)")  # fmt: skip
+    return out

@@ -15,6 +15,9 @@ EXTERNAL_TORQUES = "external_joint_torques"
 #: The robot's URDF, latched (robot_state_publisher's, ros2_control's convention).
 ROBOT_DESCRIPTION = "robot_description"
 RAW_WRENCH = "ft_sensor/raw"
+#: The mock's wrist sensor (``wrist_sensor``): a 6-axis F/T sensor at the flange, carrying the
+#: tool (WrenchStamped in its frame ``wrist_sensor``).
+WRIST_WRENCH = "wrist_sensor/raw"
 COMPENSATED_WRENCH = "ft_sensor/compensated"
 #: The bias the compensation subtracts (sensor frame), latched: the configured one at start-up,
 #: the measured one once the tare is done; it makes a bag's compensation reproducible offline.

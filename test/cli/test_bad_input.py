@@ -54,6 +54,14 @@ CASES: dict[str, tuple[Callable[..., int], Callable[[dict[str, str]], list[str]]
         "lowpass_hz='fast' is not allowed: expected a number"),
     "replay offline, a parameter file that is not UTF-8": (
         fbcc_replay.main, lambda f: [BAG, "--offline", "--params", f["latin1.yaml"]], "UTF-8"),
+    "bringup, a calibration motion with a fault drill": (
+        bringup.main, lambda f: [SCENARIO, "--calibration-motion", "--fault", "stale-sensor"],
+        "--fault"),
+    "bringup, a calibration motion of two poses": (
+        bringup.main, lambda f: [SCENARIO, "--calibration-motion", "--poses", "2"], "--poses"),
+    "calibrate, a built-in model and a flange frame": (
+        calibrate.main, lambda f: [BAG, "--robot", "iiwa14", "--flange-frame", "x", "--out",
+                                   f["a_file"] + ".yaml"], "--flange-frame"),
     "calibrate, a zero quaternion": (
         calibrate.main, lambda f: [f["zero_quaternion.csv"], "--out", f["a_file"] + ".yaml"],
         "non-zero norm"),

@@ -222,3 +222,19 @@ def test_the_report_condition_matches_the_poses_chosen() -> None:
     robot = iiwa()
     gravity = [cp.gravity_in_frame(robot, q, SENSOR_FRAME) for q in poses().q]
     assert cp.condition(gravity) == pytest.approx(poses().condition, rel=1e-12)
+
+
+def test_without_robot_the_model_comes_from_the_bags_robot_description(
+    bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The committed session latched its URDF: the model is taken from it. The arm held one
+    pose there (an insertion), so the fit is refused, saying which joint to turn; a bag
+    without a description needs --robot."""
+    session = Path(__file__).resolve().parents[1] / "data" / "bags" / "short_interference"
+    status = calibrate.main([str(session), "--out", str(tmp_path / "p.yaml")])
+    captured = capsys.readouterr()
+    assert status == 1
+    assert "model from /robot_description (7 joints, the sensor on iiwa_flange)" in captured.out
+    assert "condition number inf over 1 poses" in captured.err and "iiwa_joint_5" in captured.err
+    assert calibrate.main([str(bags["1kHz"]), "--out", str(tmp_path / "q.yaml")]) == 2
+    assert "the bag holds no robot_description" in capsys.readouterr().err

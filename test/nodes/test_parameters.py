@@ -74,6 +74,8 @@ TOGETHER: dict[str, dict[str, Any]] = {
     "dynamic_compensation.urdf_file": {**URDF, "placement": "wrist"},
     "dynamic_compensation.locked_joints": {**PANDA, "placement": "wrist"},
     "dynamic_compensation.flange_frame": {"placement": "wrist"},
+    **{name: {"wrist_sensor": True} for name in ("wrist_payload.mass", "wrist_payload.com",
+       "wrist_payload.inertia", "wrist_bias", "wrist_noise")},
 }
 #: Acts only while a node waits for its robot_description, shown over DDS by
 #: test_robot_description.py::test_without_a_description_the_node_says_where_it_waited.

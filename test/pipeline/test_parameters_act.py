@@ -81,6 +81,8 @@ CONTEXT: dict[str, dict[str, Any]] = {
     "bias": {"tare_samples": 0},  # a tare measures the bias in its place
     "guard.stop_margin": {"guard.force_limit": 20.0},
     "fault_retract": {"timeout": 0.01},  # the features' 30 ms gap faults
+    **{name: {"wrist_sensor": True} for name in ("wrist_payload.mass", "wrist_payload.com",
+       "wrist_payload.inertia", "wrist_bias", "wrist_noise")},
 }
 for _name in ("hole_from_home", "hole_xyz", "hole_rpy"):  # the compensation: a wrist sensor's
     CONTEXT[f"dynamic_compensation.{_name}"] = {**WRIST, **CONTEXT[_name]}
@@ -220,7 +222,8 @@ def _mock(values: dict[str, Any]) -> list[Any]:
         _attempt(out, stage.cell.command, positions_from_cdr(m.data))
         sample = stage.cell.step(stage.dt)
         arm = stage.arm_sensing(sample, estimate=True)
-        out += [sample.q, sample.response, arm.external, arm.measured, arm.estimated]
+        out += [sample.q, sample.response, arm.external, arm.measured, arm.estimated,
+                stage.wrist_reading(sample)]
         for stamp, raw in stage.readings(i * stage.dt, sample.raw):
             out += [stamp, raw]
     return out

@@ -103,7 +103,10 @@ def condition(gravities: ArrayLike) -> float:
     g = np.asarray(gravities, dtype=float).reshape(-1, 3)
     if len(g) == 0:
         return float("inf")
-    s = _scaled_singular_values(static_regressor(g))
+    a = static_regressor(g)
+    s = _scaled_singular_values(a)
+    if len(s) < a.shape[1]:  # one pose: 6 rows for 10 parameters
+        return float("inf")
     return float(s[0] / s[-1]) if s[-1] > 1e-12 * s[0] else float("inf")
 
 
@@ -290,12 +293,13 @@ class PoseSet:
     gravity: FloatArray
 
 
-def candidates(robot: RobotModel) -> FloatArray:
-    """Home with the last three joints offset by :data:`WRIST_OFFSETS`, within the joint
-    limits, the flange no more than :data:`MAX_DROP` below its height at home."""
+def candidates(robot: RobotModel, home: ArrayLike | None = None) -> FloatArray:
+    """``home`` (default the robot's) with the last three joints offset by
+    :data:`WRIST_OFFSETS`, within the joint limits, the flange no more than :data:`MAX_DROP`
+    below its height at home."""
     if robot.nq < 3:
         raise ConfigError("robot", robot.name, "an arm with at least three joints")
-    home = robot.home
+    home = robot.home if home is None else robot.check_joints(home, "home")
     floor = robot.flange_in_base(home).translation[2] - MAX_DROP
     out = []
     for offsets in itertools.product(*WRIST_OFFSETS):
@@ -306,17 +310,19 @@ def candidates(robot: RobotModel) -> FloatArray:
     return np.array(out)
 
 
-def calibration_poses(robot: RobotModel, n: int = 12, frame: str | None = None) -> PoseSet:
-    """``n`` joint configurations around ``robot.home`` for a static calibration, chosen so
-    gravity spans ``frame`` (default: the flange; give the sensor's frame if it is turned on
-    the flange) well: home first, then greedily the :func:`candidates` that keep the
-    condition number lowest. The module doc says how."""
+def calibration_poses(robot: RobotModel, n: int = 12, frame: str | None = None,
+                      home: ArrayLike | None = None) -> PoseSet:  # fmt: skip
+    """``n`` joint configurations around ``home`` (default ``robot.home``) for a static
+    calibration, chosen so gravity spans ``frame`` (default: the flange; give the sensor's
+    frame if it is turned on the flange) well: home first, then greedily the
+    :func:`candidates` that keep the condition number lowest. The module doc says how."""
     frame = frame or robot.flange_frame
-    pool = candidates(robot)
+    home = robot.home if home is None else robot.check_joints(home, "home")
+    pool = candidates(robot, home)
     if not 3 <= n <= len(pool):
         raise ConfigError("n", n, f"3 to {len(pool)} poses (the candidates of {robot.name})")
     gravity = np.array([gravity_in_frame(robot, q, frame) for q in pool])
-    start = int(np.argmin(np.abs(pool - robot.home).max(axis=1)))  # home itself
+    start = int(np.argmin(np.abs(pool - home).max(axis=1)))  # home itself
     chosen = [start]
     # the second: gravity furthest from home's (any pair is singular, so no condition to rank)
     chosen.append(int(np.argmax(np.linalg.norm(gravity - gravity[start], axis=1))))

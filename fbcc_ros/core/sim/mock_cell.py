@@ -155,11 +155,18 @@ class MockCell:
         self._on_hole = at_origin
         return CellSample(self.q.copy(), (self.q - q_prev) / dt, raw, x, response)
 
+    def on_peg_at_flange(self) -> FloatArray:
+        """The hole's wrench on the peg in the last step, at the flange's origin, in base axes
+        (``-w`` of the wrench on the hole, moved) [N, N m]."""
+        if not self._on_hole.any():
+            return np.zeros(6)
+        flange = self.robot.flange_in_base(self.q)
+        return wrench_at_frame(-self._on_hole, self.truth.hole_in_base, flange)
+
     def external_torques(self) -> FloatArray:
         """The external joint torques the contact of the last step causes, ``J^T w`` (the
         arm's own sensing: :mod:`fbcc_ros.core.sim.arm_sensing`) [N m]."""
         if not self._on_hole.any():
             return np.zeros(self.robot.nq)
-        flange = self.robot.flange_in_base(self.q)  # the hole's wrench on the peg: -w on the hole
-        on_peg = wrench_at_frame(-self._on_hole, self.truth.hole_in_base, flange)
-        return external_torques(self.robot, self.q, self.robot.flange_frame, on_peg)
+        return external_torques(self.robot, self.q, self.robot.flange_frame,
+                                self.on_peg_at_flange())  # fmt: skip

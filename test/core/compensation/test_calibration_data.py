@@ -21,6 +21,7 @@ import pytest
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.compensation import calibration_data as cd
 from fbcc_ros.core.compensation import calibration_poses as cp
+from fbcc_ros.core.compensation.calibration_motion import minimum_jerk
 from fbcc_ros.core.compensation.compensator import SENSOR_FRAME, sensor_motion
 from fbcc_ros.core.compensation.payload import Motion, Payload, calibrate, payload_wrench
 from fbcc_ros.core.kinematics.robot import RobotModel, pose
@@ -54,11 +55,9 @@ def _move(q0: FloatArray, q1: FloatArray, limit: FloatArray) -> tuple[FloatArray
     delta = q1 - q0
     duration = max(float(np.max(1.875 * np.abs(delta) / (0.9 * limit))), 0.2)
     t = np.arange(1, round(duration * RATE) + 1) / RATE
-    s = t / duration
-    p = 10 * s**3 - 15 * s**4 + 6 * s**5
-    v = (30 * s**2 - 60 * s**3 + 30 * s**4) / duration
-    a = (60 * s - 180 * s**2 + 120 * s**3) / duration**2
-    return t, q0 + np.outer(p, delta), np.outer(v, delta), np.outer(a, delta)
+    p, v, a = minimum_jerk(t / duration)
+    return (t, q0 + np.outer(p, delta), np.outer(v / duration, delta),
+            np.outer(a / duration**2, delta))  # fmt: skip
 
 
 @functools.lru_cache(maxsize=4)
