@@ -25,6 +25,7 @@ from std_msgs.msg import String
 from fbcc_ros.core.compensation.compensator import Compensated
 from fbcc_ros.core.errors import FbccError
 from fbcc_ros.pipeline.compensation import TABLE, CompensationStage, needs_robot
+from fbcc_ros.pipeline.parameters import frame_id
 from fbcc_ros.ros import topics
 from fbcc_ros.ros.convert import efforts_from_cdr, joints_from_cdr, wrench_from_cdr, wrench_to_cdr
 from fbcc_ros.ros.diagnostics import counter_report, publish_diagnostics
@@ -44,6 +45,7 @@ class DynamicCompensationNode(Node):
         values = declare(self, TABLE, lambda v: self.stage.apply(v))
         self.stage = CompensationStage(
             values, description_for(self, values) if needs_robot(values) else None)
+        self.hole_frame = frame_id(values, "hole_frame")
         self._said: set[str] = set()  # the kinds of rejection logged
         self.out_compensated = Outlet(
             self.create_publisher(WrenchStamped, topics.COMPENSATED_WRENCH, 10))
@@ -158,7 +160,7 @@ class DynamicCompensationNode(Node):
         if self.stage.just_tared:
             self._publish_bias(out.stamp)
             self.get_logger().info(f"tared: bias {np.round(self.stage.comp.bias, 4).tolist()}")
-        self.out_compensated.publish(wrench_to_cdr(out.wrench, topics.HOLE_FRAME, out.stamp))
+        self.out_compensated.publish(wrench_to_cdr(out.wrench, self.hole_frame, out.stamp))
 
 
 def main() -> None:

@@ -27,6 +27,7 @@ from fbcc_ros.core.control.identification import ESTIMATE_FIELDS
 from fbcc_ros.core.control.phase import NEEDS_RESET, Phase
 from fbcc_ros.core.errors import FbccError
 from fbcc_ros.pipeline.controller import TABLE, ControllerStage
+from fbcc_ros.pipeline.parameters import frame_id
 from fbcc_ros.ros import topics
 from fbcc_ros.ros.cdr import encode_array
 from fbcc_ros.ros.convert import pose_from_cdr, pose_to_cdr, wrench_from_cdr
@@ -44,7 +45,9 @@ ESTIMATE_LAYOUT = [(" ".join(("stamp", *ESTIMATE_FIELDS)), len(ESTIMATE_FIELDS) 
 class FbccControllerNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("fbcc_controller", **kwargs)
-        self.stage = ControllerStage(declare(self, TABLE, lambda v: self.stage.apply(v)))
+        values = declare(self, TABLE, lambda v: self.stage.apply(v))
+        self.stage = ControllerStage(values)
+        self.hole_frame = frame_id(values, "hole_frame")
         self.sup = self.stage.sup
         self.out_command = Outlet(self.create_publisher(PoseStamped, topics.COMMAND, 10))
         self.pub_phase = self.create_publisher(String, topics.PHASE, topics.PHASE_QOS)
@@ -99,7 +102,7 @@ class FbccControllerNode(Node):
             command = self.stage.features(now, None)
             self.get_logger().error(f"features rejected: {exc}", throttle_duration_sec=1.0)
         if command is not None:  # retracting after a fault
-            self.out_command.publish(pose_to_cdr(command, topics.HOLE_FRAME, now))
+            self.out_command.publish(pose_to_cdr(command, self.hole_frame, now))
         self._publish_phase(hold=True)
 
     def on_wrench(self, data: bytes) -> None:
@@ -118,7 +121,7 @@ class FbccControllerNode(Node):
         if command is not None:
             # stamped with the sample it answers, so latency is traceable down the chain (a hold
             # or a retract answers none: stamped when sent, matching no sample in a replay)
-            self.out_command.publish(pose_to_cdr(command, topics.HOLE_FRAME, stamp))
+            self.out_command.publish(pose_to_cdr(command, self.hole_frame, stamp))
         # the segmentation costs ~50 µs a period: only for someone listening
         if self.pub_state.get_subscription_count():
             state = self.stage.contact_state()
@@ -170,7 +173,7 @@ class FbccControllerNode(Node):
             self._phase_said = said
             if hold and self.sup.phase in NEEDS_RESET and self.sup.command is not None:
                 pose = self.stage.pose(self.sup.command)
-                self.out_command.publish(pose_to_cdr(pose, topics.HOLE_FRAME, self.now()))
+                self.out_command.publish(pose_to_cdr(pose, self.hole_frame, self.now()))
             self.pub_phase.publish(String(data=said))
             # one call site per severity: rclpy refuses a site that changes severity
             if self.sup.phase == Phase.FAULT:

@@ -35,6 +35,7 @@ from fbcc_ros.core.errors import FbccError
 from fbcc_ros.core.kinematics.cell import TcpCommand
 from fbcc_ros.core.kinematics.ik import IkError
 from fbcc_ros.pipeline.kinematics import TABLE, KinematicsStage
+from fbcc_ros.pipeline.parameters import frame_id
 from fbcc_ros.ros import topics
 from fbcc_ros.ros.convert import (
     joints_from_cdr,
@@ -60,6 +61,7 @@ class KinematicsNode(Node):
         self.out_features = Outlet(self.create_publisher(PoseStamped, topics.FEATURES, 10))
         self.pub_tcp = self.create_publisher(PoseStamped, topics.TCP_COMMAND, 10)
         self.command_type = values["command_type"]
+        self.hole_frame = frame_id(values, "hole_frame")
         self.base_frame = values["base_frame"] or self.stage.cell.robot.model.frames[1].name
         kind = {"positions": Float64MultiArray, "trajectory": JointTrajectory,
                 "pose": PoseStamped}[self.command_type]  # fmt: skip
@@ -83,7 +85,7 @@ class KinematicsNode(Node):
         except FbccError as exc:
             self.get_logger().warn(f"joint state rejected: {exc}", throttle_duration_sec=1.0)
             return
-        self.out_features.publish(pose_to_cdr(peg, topics.HOLE_FRAME, stamp))
+        self.out_features.publish(pose_to_cdr(peg, self.hole_frame, stamp))
 
     def on_command(self, data: bytes) -> None:
         try:

@@ -25,7 +25,7 @@ from fbcc_ros.core.compensation.wrench_guard import GuardLimits, WrenchGuard
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.kinematics.robot import pose
 from fbcc_ros.pipeline.kinematics import CELL, hole_from, robot_from
-from fbcc_ros.pipeline.parameters import Param
+from fbcc_ros.pipeline.parameters import HOLE_FRAME, Param
 
 
 def payload_params(prefix: str, mass: float, com: list[float], inertia: list[float]
@@ -73,6 +73,7 @@ TABLE = (
           "subscription: best_effort for a driver publishing sensor-data QoS, which a reliable "
           "subscription never hears (a best-effort one hears both); match: its publishers', "
           "subscribed once one is seen", choices=("reliable", "best_effort", "match")),
+    HOLE_FRAME,
     Param("virtual_sensor", False, "wrench from the arm's joint torques instead of a sensor"),
     Param("joint_torques", "external", "the virtual sensor's torques: external (the arm's "
           "estimate, effort of external_joint_torques) or measured (effort of joint_states, less "

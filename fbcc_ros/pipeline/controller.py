@@ -27,7 +27,7 @@ from fbcc_ros.core.control.supervisor import SafetyLimits, Supervisor
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.pipeline.lateral_watch import LateralWatch
-from fbcc_ros.pipeline.parameters import Param
+from fbcc_ros.pipeline.parameters import HOLE_FRAME, Param
 from fbcc_ros.pipeline.rate import InputRate
 
 _LIMITS = SafetyLimits()
@@ -50,6 +50,7 @@ TABLE = (
     Param("auto_start", False, "start the first insertion once features and wrenches arrive"),
     Param("estimate_rate_hz", 100.0, "rate of fbcc/contact_estimate (robust law; at most the "
           "control rate)", "Hz", 1.0, 10000.0),
+    HOLE_FRAME,  # transport settings (the node's)
 )  # fmt: skip
 
 

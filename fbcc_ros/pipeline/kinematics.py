@@ -26,7 +26,7 @@ from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.kinematics.cell import CellKinematics, TcpCommand, aligned_hole_at
 from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel, Tool
 from fbcc_ros.core.kinematics.robot import pose as pose_of
-from fbcc_ros.pipeline.parameters import Param
+from fbcc_ros.pipeline.parameters import HOLE_FRAME, Param
 
 #: The most control periods a command may take to reach, from the measured joints: as many as
 #: the controller steps one late sample by.
@@ -47,8 +47,10 @@ CELL = (
           "flange, or the tip of the URDF's chain"),
     Param("locked_joints", [], "joints of the URDF held at zero and left out (a gripper's "
           "fingers): the others are the arm's, measured and commanded"),
-    Param("tool_xyz", [0.0, 0.0, 0.10], "peg tip centre in the flange frame", "m"),
-    Param("tool_rpy", [0.0, 0.0, 0.0], "peg frame orientation in the flange frame", "rad"),
+    Param("tool_frame", "", "the frame tool_xyz and tool_rpy are given in: a frame of the "
+          "model fixed to the flange's link (a TCP the URDF defines); empty: the flange"),
+    Param("tool_xyz", [0.0, 0.0, 0.10], "peg tip centre in the tool frame", "m"),
+    Param("tool_rpy", [0.0, 0.0, 0.0], "peg frame orientation in the tool frame", "rad"),
     Param("hole_from_home", True,
           "place {H} aligned under the peg at the robot's home (hole_xyz/rpy ignored)"),
     Param("hole_xyz", [0.0, 0.0, 0.0], "origin of {H} in the base frame", "m"),
@@ -72,6 +74,7 @@ TABLE = (
     Param("command_topic", "joint_command", "where the command goes, e.g. "
           "forward_position_controller/commands"),
     Param("base_frame", "", "frame_id of poses in the base frame; empty: the model's root link"),
+    HOLE_FRAME,
 )  # fmt: skip
 
 
@@ -80,7 +83,8 @@ def robot_from(values: dict[str, Any], description: str | None = None, lbr_name:
     """The robot model of the CELL parameters; ``description``: the URDF text the
     ``robot_description`` topic gave, for ``robot: robot_description``; ``lbr_name``: a
     built-in LBR under lbr_fri_ros2_stack's names (``RobotModel.from_name``)."""
-    tool = Tool(tuple(values["tool_xyz"]), tuple(values["tool_rpy"]))  # type: ignore[arg-type]
+    tool = Tool(tuple(values["tool_xyz"]), tuple(values["tool_rpy"]),  # type: ignore[arg-type]
+                values["tool_frame"])
     source, flange, locked = values["robot"], values["flange_frame"], values["locked_joints"]
     if source in ROBOTS:
         if locked:

@@ -16,7 +16,7 @@ from typing import Any
 from fbcc_ros.core.errors import ConfigError, closest
 from fbcc_ros.core.param_files import flatten
 
-__all__ = ["Param", "flatten", "resolve", "unknown_names"]
+__all__ = ["HOLE_FRAME", "Param", "flatten", "frame_id", "resolve", "unknown_names"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -91,3 +91,17 @@ def resolve(stage: str, table: Sequence[Param], given: dict[str, Any]) -> dict[s
     for p in table:
         p.check(values[p.name], stage)
     return values
+
+
+#: The frame_id of the topics in the hole's frame {H} (features, compensated wrench, command):
+#: a transport setting of the three nodes that publish them.
+HOLE_FRAME = Param("hole_frame", "hole", "frame_id of the topics in the hole's frame {H} "
+                   "(features, compensated wrench, command)")
+
+
+def frame_id(values: dict[str, Any], name: str) -> str:
+    """The frame name of parameter ``name``: not empty, no spaces (a ConfigError)."""
+    value = values[name]
+    if not value or any(c.isspace() for c in value):
+        raise ConfigError(name, value, "a frame name: not empty, no spaces")
+    return str(value)

@@ -40,8 +40,6 @@ START = "fbcc/start"
 ABORT = "fbcc/abort"
 #: Acknowledges a fault, a force limit or an abort (std_srvs/Trigger): back to idle.
 RESET = "fbcc/reset"
-#: The frame_id of the fbcc topics in {H}.
-HOLE_FRAME = "hole"
 #: The mock cell's ground truth, one Float64MultiArray per tick (published only when heard):
 #: what the real cell cannot measure, for scoring a hardware-free run.
 TRUTH = "mock_cell/truth"

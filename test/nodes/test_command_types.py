@@ -20,6 +20,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from fbcc_ros.core.kinematics.robot import RobotModel
 from fbcc_ros.nodes.kinematics import KinematicsNode
+from fbcc_ros.pipeline.parameters import HOLE_FRAME
 from fbcc_ros.ros import topics
 from fbcc_ros.ros.convert import joints_to_cdr, pose_to_cdr
 from fbcc_ros.ros.executor import make_executor
@@ -55,7 +56,7 @@ def _command_heard(command_type: str, base_frame: str) -> tuple[Any, Any]:
         deadline = time.monotonic() + 5.0
         while not heard and time.monotonic() < deadline:
             joints.publish(joints_to_cdr(ROBOT.joint_names, ROBOT.home, np.zeros(7), 1.0))
-            commands.publish(pose_to_cdr(target, topics.HOLE_FRAME, 1.0))
+            commands.publish(pose_to_cdr(target, HOLE_FRAME.default, 1.0))
             executor.spin_once(timeout_sec=0.02)
         expected = node.stage.command(target)
         executor.shutdown()

@@ -12,7 +12,7 @@ from std_msgs.msg import String
 
 from fbcc_ros.core.contact.features import pose_from_features
 from fbcc_ros.nodes.fbcc_controller import FbccControllerNode
-from fbcc_ros.ros import topics
+from fbcc_ros.pipeline.parameters import HOLE_FRAME
 from fbcc_ros.ros.convert import pose_from_cdr, pose_to_cdr, wrench_to_cdr
 
 
@@ -35,14 +35,14 @@ def test_a_fault_off_the_wrench_path_publishes_its_hold_at_once(controller, faul
     now = controller.now()
 
     def features(x: np.ndarray) -> bytes:
-        return pose_to_cdr(pin.SE3(*pose_from_features(x, radius)), topics.HOLE_FRAME, now)
+        return pose_to_cdr(pin.SE3(*pose_from_features(x, radius)), HOLE_FRAME.default, now)
 
     x0 = np.array([0.0, 0.0, 2e-3, 0.0, 0.0])
     controller.on_features(features(x0))
-    controller.on_wrench(wrench_to_cdr(np.zeros(6), topics.HOLE_FRAME, now))
+    controller.on_wrench(wrench_to_cdr(np.zeros(6), HOLE_FRAME.default, now))
     assert controller.start_insertion(controller.now())[0]
     for _ in range(3):  # three periods: the command runs ahead of the arm
-        controller.on_wrench(wrench_to_cdr(np.zeros(6), topics.HOLE_FRAME, controller.now()))
+        controller.on_wrench(wrench_to_cdr(np.zeros(6), HOLE_FRAME.default, controller.now()))
     ahead = controller.sup.command.copy()
     measured = x0 + np.array([0.0, 0.0, 1e-6, 0.0, 0.0])  # the arm, behind its command
     controller.on_features(features(measured))

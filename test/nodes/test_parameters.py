@@ -50,6 +50,7 @@ CHANGED: dict[str, Any] = {
     "law": "admittance",  # the default scenario's law is fbcc
     "urdf_file": str(ROBOTS["iiwa7"]().urdf),
     "flange_frame": "iiwa_link_7",
+    "tool_frame": "iiwa_link_7",
     "locked_joints": ["panda_finger_joint1", "panda_finger_joint2"],
 }
 #: Where the iiwa's home puts {H} (hole_from_home), nudged so that an explicit hole differs.
@@ -74,6 +75,7 @@ TOGETHER: dict[str, dict[str, Any]] = {
     "dynamic_compensation.urdf_file": {**URDF, "placement": "wrist"},
     "dynamic_compensation.locked_joints": {**PANDA, "placement": "wrist"},
     "dynamic_compensation.flange_frame": {"placement": "wrist"},
+    "dynamic_compensation.tool_frame": {"placement": "wrist"},
     **{name: {"wrist_sensor": True} for name in ("wrist_payload.mass", "wrist_payload.com",
        "wrist_payload.inertia", "wrist_bias", "wrist_noise")},
 }

@@ -72,7 +72,8 @@ CONTEXT: dict[str, dict[str, Any]] = {
     "virtual_damping": {**WRIST, "virtual_sensor": True},
     "joint_torques": {**WRIST, "payload.mass": 0.0, "virtual_sensor": True},
     "acceleration_lowpass_hz": WRIST,
-    **{f"dynamic_compensation.{name}": WRIST for name in ("robot", "tool_xyz", "tool_rpy")},
+    **{f"dynamic_compensation.{name}": WRIST for name in ("robot", "tool_frame", "tool_xyz",
+                                                          "tool_rpy")},
     "hole_from_home": HOLE,
     "hole_xyz": {"hole_from_home": False, "hole_rpy": HOLE["hole_rpy"]},
     "hole_rpy": {"hole_from_home": False, "hole_xyz": HOLE["hole_xyz"]},
@@ -106,6 +107,7 @@ CHANGED: dict[str, Any] = {
     "robot": "panda",
     "urdf_file": str(LONGER),
     "flange_frame": "iiwa_link_7",
+    "tool_frame": "iiwa_link_7",  # 45 mm behind the flange: the peg moves back
     "locked_joints": [],
     "hole_from_home": False,
     "seed": 7,
@@ -258,6 +260,9 @@ TRANSPORT = {
     "kinematics.command_topic":
         f"{_COMMANDED}test_joint_positions_for_a_forward_position_controller",
     "kinematics.base_frame": f"{_COMMANDED}test_the_flange_pose_for_a_cartesian_controller",
+    **{f"{node}.hole_frame": ("test/nodes/test_frame_names.py::test_topics_in_the_hole_frame_"
+                              "carry_its_name_and_a_tool_frame_places_the_tool")
+       for node in ("dynamic_compensation", "kinematics", "fbcc_controller")},
 }  # fmt: skip
 CASES = [(node, p) for node, (table, _) in STAGES.items() for p in table
          if f"{node}.{p.name}" not in TRANSPORT]  # fmt: skip

@@ -90,15 +90,18 @@ ROBOTS: dict[str, Callable[[], RobotSpec]] = {
 
 @dataclasses.dataclass(frozen=True)
 class Tool:
-    """Placement of the peg frame {P} in the flange frame {F}.
+    """Placement of the peg frame {P} in the flange frame {F}, or in a frame of the model fixed
+    to the flange's link (a TCP the URDF defines).
 
     Attributes:
         xyz: Position of the peg tip's centre in {F} [m].
         rpy: Orientation of {P} in {F}, roll-pitch-yaw about fixed x, y, z [rad] (URDF order).
+        frame: The frame xyz and rpy are given in; empty: the flange.
     """
 
     xyz: tuple[float, float, float] = (0.0, 0.0, 0.10)
     rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    frame: str = ""
 
     def placement(self) -> pin.SE3:
         for field, value in (("tool.xyz", self.xyz), ("tool.rpy", self.rpy)):
@@ -149,7 +152,7 @@ class RobotModel:
             raise ConfigError("flange_frame", flange_frame, f"a link of {label}: {frames}")
         flange_id = model.getFrameId(flange_frame)
         flange = model.frames[flange_id]
-        placement = flange.placement * (tool or Tool()).placement()
+        placement = _tool_base(model, flange, tool, label).placement * (tool or Tool()).placement()
         if model.existFrame(PEG_FRAME):
             own = model.frames[model.getFrameId(PEG_FRAME)]
             if own.parentJoint != flange.parentJoint:
@@ -290,6 +293,19 @@ class RobotModel:
         pin.computeJointJacobians(self.model, self.data, arr)
         pin.updateFramePlacements(self.model, self.data)
         return np.array(pin.getFrameJacobian(self.model, self.data, fid, axes))
+
+
+def _tool_base(model: pin.Model, flange: pin.Frame, tool: Tool | None, label: str) -> pin.Frame:
+    """The frame the tool's placement is given in: its ``frame``, fixed to the flange's link, or
+    the flange."""
+    if tool is None or not tool.frame:
+        return flange
+    fixed = [f.name for f in model.frames if f.parentJoint == flange.parentJoint
+             and f.type in (pin.FrameType.BODY, pin.FrameType.OP_FRAME)]  # fmt: skip
+    if not model.existFrame(tool.frame) or tool.frame not in fixed:
+        raise ConfigError("tool_frame", tool.frame, f"a frame of {label} fixed to the flange's "
+                          f"link {flange.name}: {fixed}")  # fmt: skip
+    return model.frames[model.getFrameId(tool.frame)]
 
 
 def _parse(urdf: str | Path) -> tuple[pin.Model, str, str]:

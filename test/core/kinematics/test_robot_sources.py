@@ -11,7 +11,7 @@ import pytest
 
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.kinematics.lbr_names import lbr_description
-from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel, Tool, tip_frame
+from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel, Tool, pose, tip_frame
 from fbcc_ros.pipeline.kinematics import TABLE, cell_from
 from fbcc_ros.pipeline.parameters import resolve
 
@@ -104,3 +104,23 @@ def test_the_cell_parameters_choose_the_source(tmp_path: Path) -> None:
         cell_from(resolve("kinematics", TABLE, {"robot": "urdf_file", **hole}))
     with pytest.raises(ConfigError, match=r"locked_joints=.*built-in model iiwa14"):
         cell_from(resolve("kinematics", TABLE, {"locked_joints": ["iiwa_joint_7"]}))
+
+
+def test_a_tool_frame_of_the_model_places_the_tool_given_in_it() -> None:
+    """The UR5's tool0 (its TCP, on the last link) and the iiwa's last link: the tool given in
+    them lands where the same tool given from the flange does; a frame on another link is
+    refused, naming the ones that may be used."""
+    iiwa = RobotModel.from_name("iiwa14")
+    link7 = RobotModel.from_name("iiwa14", Tool((0.0, 0.0, 0.145), (0.0, 0.0, 0.0),
+                                                "iiwa_link_7"))  # fmt: skip
+    assert link7.peg_in_flange().isApprox(iiwa.peg_in_flange(), 1e-12)
+    ur5 = RobotModel.from_name("ur5", flange_frame="ee_link")
+    at_tcp = RobotModel.from_name("ur5", Tool((0.0, 0.0, 0.1), (0.0, 0.0, 0.0), "tool0"),
+                                  flange_frame="ee_link")  # fmt: skip
+    tcp = ur5.model.frames[ur5.model.getFrameId("tool0")].placement
+    flange = ur5.model.frames[ur5.model.getFrameId("ee_link")].placement
+    expected = flange.actInv(tcp) * pose((0.0, 0.0, 0.1))
+    assert at_tcp.peg_in_flange().isApprox(expected, 1e-12)
+    assert not at_tcp.peg_in_flange().isApprox(ur5.peg_in_flange(), 1e-6)  # tool0 is turned
+    with pytest.raises(ConfigError, match=r"tool_frame='iiwa_link_6'.*\['iiwa_link_7'"):
+        RobotModel.from_name("iiwa14", Tool(frame="iiwa_link_6"))
