@@ -13,11 +13,12 @@ from __future__ import annotations
 
 from typing import Any
 
-from launch.actions import DeclareLaunchArgument, OpaqueFunction
+from launch.actions import DeclareLaunchArgument, LogInfo, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
-from fbcc_ros.harness.cell_nodes import PROFILES, CellSetup, cell_nodes
+from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.harness.cell_nodes import PROFILES, CellSetup, cell_nodes, deadband_warnings
 from launch import LaunchContext, LaunchDescription
 
 ARGUMENTS = (
@@ -34,28 +35,25 @@ ARGUMENTS = (
 )  # fmt: skip
 
 
-def _true(value: str) -> bool:
+def _true(name: str, value: str) -> bool:
     if value.lower() not in ("true", "false"):
-        raise ValueError(f"a launch argument given {value!r}: expected true or false")
+        raise ConfigError(name, value, "true or false")
     return value.lower() == "true"
 
 
 def _nodes(context: LaunchContext) -> list[Any]:
     arg = {name: LaunchConfiguration(name).perform(context) for name, _, _ in ARGUMENTS}
-    setup = CellSetup(profile=arg["profile"], scenario=arg["scenario"], mock=_true(arg["mock"]),
-                      law=arg["law"], namespace=arg["namespace"],
-                      params_file=arg["params_file"])  # fmt: skip
-    actions = []
-    for node in cell_nodes(setup):
-        parameters = dict(node.parameters)
-        # the built-in model of the mock, and of our nodes where they use one (not beside a
-        # stack's robot_description)
-        if arg["model"] and parameters.get("robot") not in (None, "robot_description"):
-            parameters["robot"] = arg["model"]
+    setup = CellSetup(profile=arg["profile"], scenario=arg["scenario"],
+                      mock=_true("mock", arg["mock"]), law=arg["law"],
+                      namespace=arg["namespace"], params_file=arg["params_file"],
+                      model=arg["model"])  # fmt: skip
+    nodes = cell_nodes(setup)
+    actions: list[Any] = [LogInfo(msg=f"WARNING: {said}") for said in deadband_warnings(nodes)]
+    for node in nodes:
         actions.append(Node(package="fbcc_ros", executable=node.name, name=node.name,
                             namespace=arg["namespace"], output="screen",
-                            parameters=[*map(str, node.files), parameters]))  # fmt: skip
-    if _true(arg["record"]):
+                            parameters=[*map(str, node.files), node.parameters]))  # fmt: skip
+    if _true("record", arg["record"]):
         actions.append(Node(package="fbcc_ros", executable="fbcc_record", name="fbcc_record",
                             namespace=arg["namespace"], output="screen"))  # fmt: skip
     return actions

@@ -26,7 +26,7 @@ import pinocchio as pin
 
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.kinematics.cell import aligned_hole_at
-from fbcc_ros.core.kinematics.robot import RobotModel
+from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel
 from fbcc_ros.core.param_files import file_parameters
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.scenario import CONVENTIONS, SOURCES
@@ -66,6 +66,8 @@ class CellSetup:
         law: fbcc | admittance | none (empty: the scenario's).
         namespace: Where the cell's nodes run ('' or /name).
         params_file: The user's own parameter file (their hole, tool, sensor, payload).
+        model: A built-in model for the mock and, where they use a built-in one, for our nodes
+            (not beside a stack's robot_description); empty: the scenario's ``robot.model``.
     """
 
     profile: str = "fbcc"
@@ -74,6 +76,7 @@ class CellSetup:
     law: str = ""
     namespace: str = ""
     params_file: str = ""
+    model: str = ""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -109,6 +112,9 @@ def cell_nodes(setup: CellSetup) -> list[NodeConfig]:
     """The cell's nodes and their parameters (module doc)."""
     if setup.profile not in PROFILES:
         raise ConfigError("profile", setup.profile, f"one of {list(PROFILES)}")
+    if setup.model and setup.model not in ROBOTS:
+        raise ConfigError("model", setup.model, f"one of {sorted(ROBOTS)} (empty: the "
+                          "scenario's robot.model)")  # fmt: skip
     path = str(scenario_io.find(setup.scenario))
     sc = scenario_io.load(path)
     cell = sc.cell
@@ -125,9 +131,36 @@ def cell_nodes(setup: CellSetup) -> list[NodeConfig]:
     computed = _rehearsal(sc, path, setup) if setup.mock else {}
     law = {"law": setup.law} if setup.law else {}
     names = NODES if setup.mock else NODES[1:]
-    return [NodeConfig(name, (config / f"{name}.yaml", *profile, *user),
-                       {**computed.get(name, {}), **(law if name == "fbcc_controller" else {})})
-            for name in names]  # fmt: skip
+    nodes = [NodeConfig(name, (config / f"{name}.yaml", *profile, *user),
+                        {**computed.get(name, {}), **(law if name == "fbcc_controller" else {})})
+             for name in names]  # fmt: skip
+    if setup.model and not setup.mock:  # the rehearsal's values hold it already
+        for node in nodes:  # where a built-in model is used (not a stack's description)
+            if node.merged().get("robot") in ROBOTS:
+                node.parameters["robot"] = setup.model
+    return nodes
+
+
+def deadband_warnings(nodes: list[NodeConfig]) -> list[str]:
+    """What the dead bands in the wrench's path hide, before a run
+    (:func:`~fbcc_ros.pipeline.lateral_watch.deadband_warning`): ours (``deadband``), and the
+    LBR stack's estimate's when the compensation reads it (its default band: the stack's
+    ``lbr_system_config.yaml``)."""
+    from fbcc_ros.core.sim.arm_sensing import LBR_DEADBAND
+    from fbcc_ros.pipeline.lateral_watch import deadband_warning
+    from fbcc_ros.ros.topics import LBR_WRENCH
+
+    merged = {node.name: node.merged() for node in nodes}
+    comp = merged["dynamic_compensation"]
+    scenario = merged["fbcc_controller"].get("scenario", "")
+    radius = scenario_io.load(scenario_io.find(scenario)).geometry.peg_radius
+    said = [deadband_warning(tuple(comp["deadband"]), radius, "dynamic_compensation "
+                             "(deadband)")]  # fmt: skip
+    if not comp["virtual_sensor"] and comp["wrench_topic"].strip("/").endswith(LBR_WRENCH):
+        said.append(deadband_warning((LBR_DEADBAND[0], LBR_DEADBAND[3]), radius,
+                                     f"the LBR stack's estimated wrench ({LBR_WRENCH}, its "
+                                     "default force_x_th and torque_x_th)"))  # fmt: skip
+    return [s for s in said if s]
 
 
 def _rehearsal(sc: scenario_io.Scenario, path: str, setup: CellSetup
@@ -138,11 +171,12 @@ def _rehearsal(sc: scenario_io.Scenario, path: str, setup: CellSetup
 
     cell = sc.cell
     lbr = cell.conventions == "lbr"
-    model = RobotModel.from_name(cell.model, lbr_name=LBR_NAME if lbr else "")
+    model_name = setup.model or cell.model
+    model = RobotModel.from_name(model_name, lbr_name=LBR_NAME if lbr else "")
     hole = aligned_hole_at(model.peg_in_base(model.home))
     where = {"hole_from_home": False, "hole_xyz": hole.translation.tolist(),
              "hole_rpy": pin.rpy.matrixToRpy(hole.rotation).tolist()}  # fmt: skip
-    robot = {"robot": "robot_description"} if lbr else {"robot": cell.model}
+    robot = {"robot": "robot_description"} if lbr else {"robot": model_name}
     rate = {"rate_hz": sc.rate_hz}
     tare = {"tare_samples": max(1, round(TARE_SECONDS * sc.rate_hz))}
     compensation: dict[str, Any] = {**robot, **where, **tare, "wrench_qos": cell.qos,
@@ -153,7 +187,7 @@ def _rehearsal(sc: scenario_io.Scenario, path: str, setup: CellSetup
     if cell.source == "estimated":
         compensation["sensor_frame"] = model.flange_frame  # lbr_link_ee
     return {
-        "mock_cell": {"scenario": path, "robot": cell.model, "conventions": cell.conventions,
+        "mock_cell": {"scenario": path, "robot": model_name, "conventions": cell.conventions,
                       "sensor_qos": cell.qos, "arm_sensing": cell.source != "ft_sensor",
                       **rate},
         "dynamic_compensation": compensation,
@@ -162,4 +196,5 @@ def _rehearsal(sc: scenario_io.Scenario, path: str, setup: CellSetup
     }
 
 
-__all__ = ["CONVENTIONS", "PROFILES", "SOURCES", "CellSetup", "NodeConfig", "cell_nodes"]
+__all__ = ["CONVENTIONS", "PROFILES", "SOURCES", "CellSetup", "NodeConfig", "cell_nodes",
+           "deadband_warnings"]

@@ -37,7 +37,7 @@ from fbcc_ros.core.errors import FbccError, InputError, command
 from fbcc_ros.core.param_files import file_parameters
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import score
-from fbcc_ros.harness.cell_nodes import CellSetup, profile_of
+from fbcc_ros.harness.cell_nodes import CellSetup, deadband_warnings, profile_of
 from fbcc_ros.harness.cell_nodes import cell_nodes as harness_cell_nodes
 from fbcc_ros.harness.cell_run import CellRun, NodeSpec
 from fbcc_ros.harness.fault_drill import DRILLS, StepMeter, describe, run_drill
@@ -127,10 +127,13 @@ def cell_nodes(
            "fbcc_controller": {"law": law,
                                **({} if processes else {"timeout": IN_PROCESS_TIMEOUT})}}
     setup = CellSetup(profile_of(sc.cell.conventions), path, namespace=sc.cell.namespace)
+    nodes = harness_cell_nodes(setup)
+    for said in deadband_warnings(nodes):
+        print(f"WARNING: {said}", flush=True)
     return [NodeSpec(node.name, factories[node.name],
                      {**node.parameters, **own.get(node.name, {})}, files=node.files,
                      namespace=sc.cell.namespace)
-            for node in harness_cell_nodes(setup)]  # fmt: skip
+            for node in nodes]  # fmt: skip
 
 
 def recorded_topics(conventions: str) -> list[str]:

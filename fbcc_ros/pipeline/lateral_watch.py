@@ -6,6 +6,13 @@ zeroes every component under 2 N and 0.5 N·m) can hide all of it, and the law t
 nothing while it pushes in. Such a band leaves exact zeros, which no sensor's noise does: while
 the peg is in contact (an axial force over :data:`CONTACT_FORCE`), the share of samples in which
 a lateral component is exactly zero says it, component by component.
+
+Before a run, :func:`deadband_warning` compares a dead band with the lateral forces an insertion
+must still read at its end: it ends aligned with at most :data:`RESOLVE_FORCE` of lateral force
+(the goal of the robust law's studies, ``docs/reproduction.md``), and a moment of that force
+over the peg's radius; a band over either hides the last of the alignment. The LBR stack's
+estimate (2 N, 0.5 N·m) is 4 and 100 times over them for a 10 mm peg, and its rehearsal does not
+assemble (``docs/integration.md``).
 """
 
 from __future__ import annotations
@@ -23,6 +30,27 @@ BLIND_SHARE = 0.5
 #: The lateral components of a response (Fx, Fy, Fz, Mx, My), and their names.
 LATERAL = [0, 1, 3, 4]
 NAMES = ("Fx", "Fy", "Mx", "My")
+
+
+#: The lateral force an insertion ends with, at most [N]: what a dead band must stay under.
+RESOLVE_FORCE = 0.5
+
+
+def deadband_warning(band: tuple[float, float], radius: float | None, where: str) -> str:
+    """What a dead band of ``band`` (force [N], moment [N·m]) on the wrench ``where`` hides,
+    or ``""``: a force band over :data:`RESOLVE_FORCE`, a moment band over that force at the
+    peg's ``radius`` [m] (not judged without it)."""
+    force, moment = band
+    over = []
+    if force > RESOLVE_FORCE:
+        over.append(f"{force:g} N > {RESOLVE_FORCE:g} N")
+    if radius is not None and moment > RESOLVE_FORCE * radius:
+        over.append(f"{moment:g} N·m > {RESOLVE_FORCE * radius:.3g} N·m "
+                    f"({RESOLVE_FORCE:g} N at the peg's radius {radius * 1e3:g} mm)")  # fmt: skip
+    if not over:
+        return ""
+    return (f"the dead band of {where} ({'; '.join(over)}) hides the lateral forces an "
+            "insertion ends with: the law cannot align the peg below it")
 
 
 class LateralWatch:

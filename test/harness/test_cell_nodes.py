@@ -81,3 +81,43 @@ def test_the_profile_files_are_keyed_for_any_namespace() -> None:
     for profile in PROFILES[1:]:
         doc = yaml.safe_load((ROOT / "config" / "profiles" / f"{profile}.yaml").read_text())
         assert all(key.startswith("/**/") for key in doc), (profile, list(doc))
+
+
+def test_dead_bands_that_hide_the_insertion_are_said_before_it_starts(tmp_path: Path) -> None:
+    """The LBR stack's estimated wrench (its default 2 N / 0.5 N·m band), and our own
+    deadband set too wide in the user's file; the shipped set-ups say nothing."""
+    from fbcc_ros.harness.cell_nodes import deadband_warnings
+
+    assert deadband_warnings(cell_nodes(CellSetup())) == []
+    assert deadband_warnings(cell_nodes(CellSetup("lbr", LBR))) == []  # measured torques
+    data = yaml.safe_load((ROOT / LBR).read_text())
+    data.setdefault("sensor", {})["source"] = "estimated"
+    estimated = tmp_path / "estimated.yaml"
+    estimated.write_text(yaml.safe_dump(data))
+    said = deadband_warnings(cell_nodes(CellSetup("lbr", str(estimated))))
+    assert len(said) == 1 and "the LBR stack's estimated wrench" in said[0], said
+    assert "2 N > 0.5 N" in said[0] and "0.5 N·m >" in said[0]
+    ours = tmp_path / "wide.yaml"
+    ours.write_text(yaml.safe_dump({"/**/dynamic_compensation": {"ros__parameters": {
+        "deadband": [1.0, 0.0]}}}))  # fmt: skip
+    said = deadband_warnings(cell_nodes(CellSetup(params_file=str(ours))))
+    assert len(said) == 1 and "dynamic_compensation (deadband) (1 N > 0.5 N)" in said[0]
+
+
+def test_a_model_given_at_launch_replaces_the_scenarios_everywhere_it_is_built_in(
+        tmp_path: Path) -> None:  # fmt: skip
+    """The mock plays it and the hole is placed under its home; beside the LBR stack our nodes
+    still take the model from the description the mock latches; a name not built in is refused."""
+    nodes = {n.name: n.merged() for n in cell_nodes(CellSetup(model="iiwa7"))}
+    assert {nodes[n]["robot"] for n in ("mock_cell", "kinematics", "dynamic_compensation")} == {
+        "iiwa7"}
+    default = {n.name: n.merged() for n in cell_nodes(CellSetup())}
+    assert nodes["kinematics"]["hole_xyz"] != default["kinematics"]["hole_xyz"]
+    lbr = {n.name: n.merged() for n in cell_nodes(CellSetup("lbr", LBR, model="med7"))}
+    assert lbr["mock_cell"]["robot"] == "med7"
+    assert lbr["kinematics"]["robot"] == "robot_description"
+    real = {n.name: n.merged()
+            for n in cell_nodes(CellSetup(mock=False, model="panda"))}  # fmt: skip
+    assert real["kinematics"]["robot"] == "panda"
+    with pytest.raises(ConfigError, match="model='kuka'"):
+        cell_nodes(CellSetup(model="kuka"))

@@ -51,3 +51,17 @@ def test_only_contact_samples_count() -> None:
     free[:, 2] = CONTACT_FORCE / 2
     watch = _watched(free)
     assert watch.blind_share is None and watch.warning() == ""
+
+
+def test_a_dead_band_over_what_an_insertion_ends_with_is_named_before_a_run() -> None:
+    from fbcc_ros.pipeline.lateral_watch import RESOLVE_FORCE, deadband_warning
+
+    radius = 0.01
+    assert deadband_warning((0.0, 0.0), radius, "ours") == ""
+    assert deadband_warning((RESOLVE_FORCE, RESOLVE_FORCE * radius), radius, "ours") == ""
+    said = deadband_warning((2.0, 0.5), radius, "the stack's estimate")
+    assert "the stack's estimate" in said and "2 N > 0.5 N" in said
+    assert "0.5 N·m > 0.005 N·m (0.5 N at the peg's radius 10 mm)" in said
+    only_moment = deadband_warning((0.1, 0.01), radius, "ours")
+    assert "N·m" in only_moment and "0.1 N >" not in only_moment
+    assert deadband_warning((0.1, 10.0), None, "ours") == ""  # no radius: the force alone
