@@ -6,8 +6,15 @@ What the live nodes do per message, done here by the same stages in the bag's or
 
 * ``joint_states`` → the kinematics stage's peg pose → the controller stage's features; for a
   wrist sensor also the compensation stage's joints;
-* ``ft_sensor/raw`` → the compensation stage → one control period of the controller stage → the
-  command.
+* the compensation's input → the compensation stage → one control period of the controller
+  stage → the command. The input is the raw wrench on ``wrench_topic`` (``ft_sensor/raw`` by
+  default), or for a virtual sensor the joint torques: the measured ones in ``joint_states``
+  (``joint_torques: measured``) or ``external_joint_torques``. A joint state that is also the
+  virtual sensor's sample goes to the compensation before the kinematics, as the one-process
+  cell takes it: the controller steps on the features of the joint state before.
+
+**The namespace.** A cell run in a namespace (``/lbr`` beside the LBR stack) records its topics
+under it: the replay reads the namespace of the bag's one ``joint_states`` (or the one given).
 
 **Following the recorded flow.** A loaded cell drops samples: a node's queue overflows during a
 stall, and that node never sees the sample. The bag says which samples each node did process,
@@ -25,7 +32,8 @@ the bags it records.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+import functools
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -34,21 +42,40 @@ import yaml
 
 from fbcc_ros.bag.reader import Bag
 from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.compensation.compensator import Compensated
 from fbcc_ros.core.control.phase import WAITING
-from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.errors import InputError
 from fbcc_ros.core.files import read_text
 from fbcc_ros.core.param_files import node_of
 from fbcc_ros.pipeline import compensation, controller, kinematics
 from fbcc_ros.pipeline.parameters import flatten, resolve
-from fbcc_ros.ros.cdr import decode_string, decode_wrench
-from fbcc_ros.ros.convert import joints_from_cdr, pose_from_cdr, stamp_to_seconds, wrench_from_cdr
+from fbcc_ros.ros.cdr import decode_stamp, decode_string, decode_wrench
+from fbcc_ros.ros.convert import (
+    efforts_from_cdr,
+    joints_from_cdr,
+    pose_from_cdr,
+    stamp_to_seconds,
+    wrench_from_cdr,
+)
 
 #: The file ``fbcc_bringup`` writes beside the bag's .mcap: each cell node's parameters.
 PARAMS_FILE = "fbcc_params.yaml"
 #: The nodes whose stage the offline replay runs, and the topics it needs from a bag.
 NODES = ("dynamic_compensation", "kinematics", "fbcc_controller")
-NEEDED = {"/joint_states": "sensor_msgs/msg/JointState",
-          "/ft_sensor/raw": "geometry_msgs/msg/WrenchStamped"}  # fmt: skip
+JOINT_STATE, WRENCH = "sensor_msgs/msg/JointState", "geometry_msgs/msg/WrenchStamped"
+
+
+def bag_namespace(bag: Bag) -> str:
+    """The namespace of the cell a bag recorded: that of its one ``joint_states`` ('' at the
+    root); an InputError naming them if it has none or several."""
+    found = sorted(t for t, kind in bag.topics.items() if t.endswith("/joint_states")
+                   and kind == JOINT_STATE and bag.counts[t])  # fmt: skip
+    if len(found) != 1:
+        have = {t: f"{k} ({bag.counts[t]})" for t, k in bag.topics.items()}
+        raise InputError("bag topics", have, "one sensor_msgs/msg/JointState topic named "
+                         f"<namespace>/joint_states with messages, not {found or 'none'} "
+                         "(--namespace chooses one)")  # fmt: skip
+    return found[0].removesuffix("/joint_states")
 
 
 def _key(seconds: float) -> int:
@@ -117,63 +144,86 @@ class OfflineCell:
         stages = (compensation, kinematics, controller)
         comp, kin, ctrl = (resolve(node, stage.TABLE, given.get(node, {}))
                            for node, stage in zip(NODES, stages, strict=True))  # fmt: skip
-        if comp["virtual_sensor"]:
-            raise ConfigError("virtual_sensor", True, "false: the offline replay reads the raw "
-                              "wrench (ft_sensor/raw), not external joint torques")  # fmt: skip
         self.compensation = compensation.CompensationStage(comp, description)
         self.kinematics = kinematics.KinematicsStage(kin, description)
         self.controller = controller.ControllerStage(ctrl)
         self.wrist = self.compensation.robot is not None
+        #: the compensation's input (relative), and its type
+        self.input = (("joint_states", JOINT_STATE) if self.compensation.measured
+                      else ("external_joint_torques", JOINT_STATE) if self.compensation.virtual
+                      else (comp["wrench_topic"], WRENCH))  # fmt: skip
 
 
-def replay_offline(bag: Bag, given: dict[str, dict[str, Any]]) -> OfflineResult:
-    """Runs ``bag`` through an :class:`OfflineCell` configured by ``given``."""
-    bag.require(NEEDED)
-    latched = [decode_string(m.data) for m in bag.of("/robot_description")]
+def replay_offline(bag: Bag, given: dict[str, dict[str, Any]], namespace: str | None = None
+                   ) -> OfflineResult:  # fmt: skip
+    """Runs ``bag`` through an :class:`OfflineCell` configured by ``given``; the cell's topics
+    under ``namespace`` (default: :func:`bag_namespace`)."""
+    ns = bag_namespace(bag) if namespace is None else "/" + namespace.strip("/")
+    ns = "" if ns == "/" else ns
+
+    def name(topic: str) -> str:
+        return topic if topic.startswith("/") else f"{ns}/{topic}"
+
+    joints_topic = name("joint_states")
+    bag.require({joints_topic: JOINT_STATE})
+    latched = [decode_string(m.data) for m in bag.of(name("robot_description"))]
     cell = OfflineCell(given, latched[-1] if latched else None)
+    input_topic = name(cell.input[0])
+    bag.require({input_topic: cell.input[1]})
     names = cell.kinematics.joint_names
-    flow = _recorded_flow(bag, cell)
+    comp = cell.compensation
+    flow = _recorded_flow(bag, cell, name, input_topic)
     counts = flow.counts
     counts.update(compensated=0, stepped=0, dropped_by_controller=0)
     ctrl = cell.controller
     start = min(flow.commands) if flow.commands else None
     t, commands, matched = [], [], []
-    for m in bag.messages:
-        if m.topic == "/joint_states":
-            stamp, q, dq = joints_from_cdr(m.data, names)
-            ctrl.features(stamp, cell.kinematics.joints(q))
-            if cell.wrist:
-                cell.compensation.joints(stamp, q, dq)
-            continue
-        if m.topic != "/ft_sensor/raw":
-            continue
-        stamp, frame, wrench = wrench_from_cdr(m.data)
+
+    def step(stamp: float, sample: Callable[[], Compensated | None]) -> None:
+        """One sample of the compensation's input, through the controller as live."""
         key = _key(stamp)
         if flow.fed is not None and key not in flow.fed:
-            continue
-        out = cell.compensation.reading(stamp, frame, wrench)
+            return
+        out = sample()
         if out is None:
-            continue
+            return
         counts["compensated"] += 1
         if start is not None:
             if key < start:  # not started yet: the idle controller hears it, as live
                 ctrl.wrench(stamp, stamp, out.wrench)
-                continue
+                return
             if key not in flow.commands:
                 counts["dropped_by_controller"] += 1
-                continue
+                return
         if ctrl.sup.phase in WAITING and not ctrl.sup.start(stamp)[0]:
             # not armed (no recent features or wrench): counted, tried again on the next sample
             counts["start_refused"] = counts.get("start_refused", 0) + 1
-            continue
+            return
         command = ctrl.wrench(stamp, stamp, out.wrench)
         if command is None:
-            continue
+            return
         counts["stepped"] += 1
         t.append(stamp)
         commands.append(ctrl.features_of(command))
         matched.append(flow.commands.get(key, np.full(5, np.nan)))
-    counts["bias_used"] = cell.compensation.comp.bias.tolist()  # recorded, or tared from the bag
+
+    for m in bag.messages:
+        if m.topic == joints_topic:
+            stamp, q, dq = joints_from_cdr(m.data, names)
+            if comp.measured:  # the same joint state is the virtual sensor's sample
+                effort = efforts_from_cdr(m.data, names)[1]
+                step(stamp, functools.partial(comp.measured_torques, stamp, q, dq, effort))
+            elif cell.wrist:
+                comp.joints(stamp, q, dq)
+            ctrl.features(stamp, cell.kinematics.joints(q))
+        elif m.topic == input_topic:
+            if comp.virtual:
+                stamp, tau = efforts_from_cdr(m.data, names)
+                step(stamp, functools.partial(comp.torques, stamp, tau))
+            else:
+                stamp, frame, wrench = wrench_from_cdr(m.data)
+                step(stamp, functools.partial(comp.reading, stamp, frame, wrench))
+    counts["bias_used"] = comp.comp.bias.tolist()  # recorded, or tared from the bag
     return OfflineResult(np.array(t), np.array(commands).reshape(-1, 5),
                          np.array(matched).reshape(-1, 5), counts, ctrl.said)  # fmt: skip
 
@@ -187,7 +237,8 @@ class _Flow:
     counts: dict[str, Any]
 
 
-def _recorded_flow(bag: Bag, cell: OfflineCell) -> _Flow:
+def _recorded_flow(bag: Bag, cell: OfflineCell, name: Callable[[str], str], input_topic: str
+                   ) -> _Flow:  # fmt: skip
     """The raw samples the live compensation took, and the bias it used.
 
     The samples: the ones its outputs answer. The bias: the one it published on
@@ -196,11 +247,11 @@ def _recorded_flow(bag: Bag, cell: OfflineCell) -> _Flow:
     (fewer if the bag begins later); a sample the live tare missed then shifts the bias a little
     (``bias: retared`` in the counts). Sets ``cell``'s compensator to match."""
     def keys(topic: str) -> list[int]:
-        return [_key(stamp_to_seconds(decode_wrench(m.data)[0])) for m in bag.of(topic)]
+        return [_key(stamp_to_seconds(decode_stamp(m.data))) for m in bag.of(topic)]
 
-    raw, outputs = keys("/ft_sensor/raw"), set(keys("/ft_sensor/compensated"))
+    raw, outputs = keys(input_topic), set(keys(name("ft_sensor/compensated")))
     commands: dict[int, FloatArray] = {}
-    for m in bag.of("/fbcc/command"):  # the peg's pose in {H}: back to the controller's features
+    for m in bag.of(name("fbcc/command")):  # the peg in {H}: back to the controller's features
         stamp, peg = pose_from_cdr(m.data)
         commands[_key(stamp)] = cell.controller.features_of(peg)
     counts: dict[str, Any] = {"raw": len(raw), "dropped_by_compensation": 0}
@@ -208,7 +259,7 @@ def _recorded_flow(bag: Bag, cell: OfflineCell) -> _Flow:
         return _Flow(None, commands, counts)
     first = min(outputs)
     counts["dropped_by_compensation"] = sum(k >= first and k not in outputs for k in raw)
-    biases = list(bag.of("/ft_sensor/bias"))
+    biases = list(bag.of(name("ft_sensor/bias")))
     if biases:
         cell.compensation.retare(0, decode_wrench(biases[-1].data)[2])
         counts["bias"] = "recorded"

@@ -140,12 +140,14 @@ def recorded_topics(conventions: str) -> list[str]:
     """What the bringup records: the cell's topics but the two computed only while heard
     (``fbcc-report`` derives the contact state from the recorded wrench and features; replay
     and report do not use the TCP command; recording them cost the loop ~7 % of its cycles);
-    beside the LBR stack, its command and estimated wrench in place of ours."""
+    beside the LBR stack, its command, estimated wrench and external torques (what a virtual
+    sensor may read; published only while heard) in place of our command."""
     skip: tuple[str, ...] = (topics.CONTACT_STATE, topics.TCP_COMMAND)
     if conventions != "lbr":
         return [t for t in CELL_TOPICS if t not in skip]
     skip += (topics.JOINT_COMMAND,)
-    return [t for t in CELL_TOPICS if t not in skip] + [topics.LBR_COMMAND, topics.LBR_WRENCH]
+    stack = [topics.LBR_COMMAND, topics.LBR_WRENCH, topics.EXTERNAL_TORQUES]
+    return [t for t in CELL_TOPICS if t not in skip] + stack
 
 
 def command_topic(conventions: str) -> str:

@@ -2,7 +2,7 @@
 
     fbcc_replay BAG [--rate R] [--topics T [T ...]] [--start S] [--loop]
                     [--wait-for-subscribers S] [--ros-args ...]
-    fbcc_replay BAG --offline [--params FILE ...] [--out DIR]
+    fbcc_replay BAG --offline [--params FILE ...] [--namespace NS] [--out DIR]
 
 **Republish** (default): every message of the bag (or of ``--topics``) is published as it was
 recorded, raw, at its recorded time from the first one, scaled by ``1 / rate``; ``--start``
@@ -12,9 +12,11 @@ subscriber (at most S seconds; a topic still unheard then is named). Each topic 
 QoS it was recorded with (transient local where the recorded publisher was latched, so a late
 subscriber still gets the last phase). Progress is printed each second; Ctrl-C stops.
 
-**Offline** (``--offline``): the bag's raw wrenches and joint states run through the
-compensation, kinematics and controller core, without ROS (:mod:`fbcc_ros.bag.offline`), with
-the nodes' parameters from ``--params`` files or the bag's ``fbcc_params.yaml``. It prints the
+**Offline** (``--offline``): the bag's joint states and the compensation's input (the raw
+wrench, or a virtual sensor's joint torques) run through the compensation, kinematics and
+controller core, without ROS (:mod:`fbcc_ros.bag.offline`), with the nodes' parameters from
+``--params`` files or the bag's ``fbcc_params.yaml``, the cell's topics under the namespace of
+its ``joint_states`` (or ``--namespace``). It prints the
 largest difference from the recorded commands, per feature, against the stated tolerance
 (:data:`TOLERANCE`), and with ``--out`` writes ``offline.csv`` and ``offline.json``. Changed
 parameters (another law, other gains) then show what they would have commanded.
@@ -74,6 +76,9 @@ def _parser() -> argparse.ArgumentParser:
         help="ros__parameters YAML files of the nodes (offline; default: the "
         "bag's fbcc_params.yaml)",
     )
+    parser.add_argument("--namespace", default=None, metavar="NS",
+                        help="offline: the cell's namespace in the bag (default: that of its "
+                        "one joint_states)")  # fmt: skip
     parser.add_argument("--out", type=Path, default=None, help="folder for the offline results")
     return parser  # fmt: skip
 
@@ -168,11 +173,12 @@ def republish(
         rclpy.try_shutdown(context=context)
 
 
-def offline(bag: Bag, params: list[Path], out: Path | None) -> int:
+def offline(bag: Bag, params: list[Path], out: Path | None, namespace: str | None = None
+            ) -> int:  # fmt: skip
     from fbcc_ros.bag.offline import node_parameters, replay_offline
 
     given = node_parameters(bag.path, params)
-    result = replay_offline(bag, given)
+    result = replay_offline(bag, given, namespace)
     error = result.max_error()
     counts = ", ".join(f"{k} {v}" for k, v in result.counts.items())
     print(f"offline: {counts}; phase {result.phase}")
@@ -222,7 +228,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"fbcc_replay: the bag is truncated ({bag.truncated}); replaying what it has",
                   file=sys.stderr)  # fmt: skip
         if args.offline:
-            return offline(bag, list(args.params), args.out)
+            return offline(bag, list(args.params), args.out, args.namespace)
         messages = schedule(bag, args.topics, args.start)
         span = (messages[-1].log_time_ns - messages[0].log_time_ns) * 1e-9
         print(f"fbcc_replay: {len(messages)} messages on {len({m.topic for m in messages})} "

@@ -157,6 +157,13 @@ def _decoding(what: str) -> Callable[[Callable[P, T]], Callable[P, T]]:
     return wrap
 
 
+@_decoding("stamped message")
+def decode_stamp(data: bytes) -> Stamp:
+    """The header stamp of any message that begins with a std_msgs/Header."""
+    _check_encapsulation(data, "stamped message")
+    return _STAMP.unpack_from(data, 4)  # type: ignore[return-value]
+
+
 # --- geometry_msgs/WrenchStamped and PoseStamped: a header, then a fixed run of doubles
 #     (force, torque: 6; position, orientation x y z w: 7)
 

@@ -81,3 +81,29 @@ def test_parameter_files_are_checked_as_the_nodes_check_them(bag, tmp_path: Path
     bad.write_text("a: [unclosed")
     with pytest.raises(InputError, match=r"bad\.yaml"):
         node_parameters(BAG, [bad])
+
+
+def _under(bag, namespace: str):
+    """The bag as if its cell had run in ``namespace`` (every topic moved under it)."""
+    messages = [dataclasses.replace(m, topic=namespace + m.topic) for m in bag.messages]
+    return dataclasses.replace(bag, messages=messages,
+                               topics={namespace + t: k for t, k in bag.topics.items()},
+                               counts=Counter(m.topic for m in messages))  # fmt: skip
+
+
+def test_a_cell_recorded_in_a_namespace_is_replayed_under_it(bag) -> None:
+    """The namespace is that of the bag's one joint_states, or the one given; two cells in one
+    bag need it given, and a namespace the bag lacks is named."""
+    moved = _under(bag, "/lbr")
+    result = replay_offline(moved, node_parameters(BAG))
+    assert result.counts["stepped"] == bag.counts["/fbcc/command"]
+    assert (result.max_error() <= TOLERANCE).all(), result.max_error()
+    both = dataclasses.replace(moved, messages=moved.messages + bag.messages,
+                               topics={**moved.topics, **bag.topics},
+                               counts=moved.counts + bag.counts)  # fmt: skip
+    with pytest.raises(InputError, match=r"not \['/joint_states', '/lbr/joint_states'\]"):
+        replay_offline(both, node_parameters(BAG))
+    chosen = replay_offline(both, node_parameters(BAG), namespace="lbr")
+    assert (chosen.max_error() <= TOLERANCE).all() and chosen.counts["stepped"] > 500
+    with pytest.raises(InputError, match="/arm/joint_states"):
+        replay_offline(moved, node_parameters(BAG), namespace="/arm")

@@ -87,7 +87,7 @@ def _bag_with_only_the_phase(folder: Path) -> Path:
     [
         ("missing", ["no/such/bag"], "an existing .mcap file or bag folder"),
         ("not mcap", ["{junk}"], "an mcap file"),
-        ("no joint states", ["{phase_only}", "--offline"], "messages on /joint_states"),
+        ("no joint states", ["{phase_only}", "--offline"], "<namespace>/joint_states"),
         ("unknown topic", [str(BAG), "--topics", "/nope"], "topics of the bag"),
         ("bad rate", [str(BAG), "--rate", "0"], "--rate"),
         ("bad wait", [str(BAG), "--wait-for-subscribers", "-1"], "--wait-for-subscribers"),

@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 import yaml
 
@@ -61,6 +62,31 @@ def test_the_virtual_sensor_from_the_stacks_external_torques_assembles(tmp_path:
         assert recorded.counts[topic] > 300, (topic, recorded.counts)
     assert recorded.counts["/lbr/robot_description"] == 1
     assert recorded.counts["/lbr/force_torque_broadcaster/wrench"] > 300  # the stack's too
+    _replayed_offline(recorded, bag)
+
+
+def _replayed_offline(recorded: Any, bag: Path) -> None:
+    """The session under /lbr through the stages without ROS, the virtual sensor's torques
+    from the bag: the recorded commands, to the replay's tolerance."""
+    from fbcc_ros.bag.offline import node_parameters, replay_offline
+    from fbcc_ros.nodes.fbcc_replay import TOLERANCE
+
+    result = replay_offline(recorded, node_parameters(bag))
+    compared = np.isfinite(result.recorded).all(axis=1).sum()
+    assert compared > 300, result.counts
+    assert (result.max_error() <= TOLERANCE).all(), (result.max_error(), result.counts)
+
+
+@REALTIME
+def test_the_virtual_sensor_from_the_measured_torques_replays_offline(tmp_path: Path) -> None:
+    """The LBR profile's own source (the effort of the joint states): recorded in /lbr, and
+    replayed offline to the recorded commands."""
+    from fbcc_ros.bag.reader import read_bag
+
+    path = _scenario(tmp_path, LBR, {}, {"source": "measured_torques"})
+    bag = tmp_path / "bag"
+    _assembled(run_cell(path, "fbcc", bag=bag))
+    _replayed_offline(read_bag(bag), bag)
 
 
 @REALTIME
