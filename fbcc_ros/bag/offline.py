@@ -6,6 +6,7 @@ What the live nodes do per message, done here by the same stages in the bag's or
 
 * ``joint_states`` → the kinematics stage's peg pose → the controller stage's features; for a
   wrist sensor also the compensation stage's joints;
+* ``ft_sensor/noise`` (the noise the live tare measured) → the controller stage, as live;
 * the compensation's input → the compensation stage → one control period of the controller
   stage → the command. The input is the raw wrench on ``wrench_topic`` (``ft_sensor/raw`` by
   default), or for a virtual sensor the joint torques: the measured ones in ``joint_states``
@@ -207,8 +208,11 @@ def replay_offline(bag: Bag, given: dict[str, dict[str, Any]], namespace: str | 
         commands.append(ctrl.features_of(command))
         matched.append(flow.commands.get(key, np.full(5, np.nan)))
 
+    noise_topic = name("ft_sensor/noise")
     for m in bag.messages:
-        if m.topic == joints_topic:
+        if m.topic == noise_topic:  # the tare's: the robust law takes it, as live
+            ctrl.noise(wrench_from_cdr(m.data)[2])
+        elif m.topic == joints_topic:
             stamp, q, dq = joints_from_cdr(m.data, names)
             if comp.measured:  # the same joint state is the virtual sensor's sample
                 effort = efforts_from_cdr(m.data, names)[1]

@@ -108,7 +108,7 @@ def run_calibration(scenario_path: str, bag: Path, poses: int = 12, hold: float 
 
     specs, sc = calibration_specs(scenario_path, poses, hold, processes)
     cell = sc.cell
-    specs.append(recorder(bag, cell.conventions, cell.namespace, RECORDED))
+    specs.append(recorder(bag, RECORDED, cell.namespace))
     with CellRun(specs, log_dir=log_dir, namespace=cell.namespace, chain=False) as run:
         wait_recording(run, 30.0, RECORDED)
         mover = run.nodes["calibration_motion"]

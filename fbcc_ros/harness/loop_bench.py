@@ -149,7 +149,7 @@ def _measure(
             NodeSpec(s.name, cls) for s, cls in zip(specs[1:], bare, strict=True)
         ]
     if bag is not None:
-        specs.append(recorder(bag))
+        specs.append(recorder(bag, recorded_topics("fbcc")))
     with CellRun(specs, processes=processes, probe=True, chain=chained) as run:
         if bag is not None:
             wait_recording(run, 30.0, recorded_topics("fbcc"))

@@ -136,17 +136,20 @@ def cell_nodes(
             for node in nodes]  # fmt: skip
 
 
-def recorded_topics(conventions: str) -> list[str]:
+def recorded_topics(conventions: str, arm_sensing: bool = False) -> list[str]:
     """What the bringup records: the cell's topics but the two computed only while heard
     (``fbcc-report`` derives the contact state from the recorded wrench and features; replay
     and report do not use the TCP command; recording them cost the loop ~7 % of its cycles);
-    beside the LBR stack, its command, estimated wrench and external torques (what a virtual
-    sensor may read; published only while heard) in place of our command."""
+    beside the LBR stack, its command in place of ours; where the mock plays the arm's own
+    sensing, the external torques a virtual sensor may read (published only while heard) and,
+    beside the LBR stack, its estimated wrench."""
     skip: tuple[str, ...] = (topics.CONTACT_STATE, topics.TCP_COMMAND)
-    if conventions != "lbr":
-        return [t for t in CELL_TOPICS if t not in skip]
-    skip += (topics.JOINT_COMMAND,)
-    stack = [topics.LBR_COMMAND, topics.LBR_WRENCH, topics.EXTERNAL_TORQUES]
+    lbr = conventions == "lbr"
+    if lbr:
+        skip += (topics.JOINT_COMMAND,)
+    stack = [topics.LBR_COMMAND] if lbr else []
+    if arm_sensing:
+        stack += [topics.EXTERNAL_TORQUES, *([topics.LBR_WRENCH] if lbr else [])]
     return [t for t in CELL_TOPICS if t not in skip] + stack
 
 
@@ -155,13 +158,10 @@ def command_topic(conventions: str) -> str:
     return topics.LBR_COMMAND if conventions == "lbr" else topics.JOINT_COMMAND
 
 
-def recorder(bag: Path, conventions: str = "fbcc", namespace: str = "",
-             recorded: list[str] | None = None) -> NodeSpec:  # fmt: skip
-    """The cell's recorder, in its own process, writing ``bag``: ``recorded`` (default
-    :func:`recorded_topics` of the stack the mock plays)."""
+def recorder(bag: Path, recorded: list[str], namespace: str = "") -> NodeSpec:
+    """The cell's recorder, in its own process, writing ``recorded`` into ``bag``."""
     from fbcc_ros.nodes.fbcc_record import FbccRecordNode
 
-    recorded = recorded_topics(conventions) if recorded is None else recorded
     return NodeSpec("fbcc_record", FbccRecordNode, {"out": str(bag), "topics": recorded},
                     own_process=True, namespace=namespace)  # fmt: skip
 
@@ -264,12 +264,13 @@ def run_cell(
     path = str(scenario_io.find(scenario_path))
     sc = scenario_io.load(path)
     specs = cell_nodes(path, sc, law, draw_geometry, seed, processes)
+    recorded = recorded_topics(sc.cell.conventions, sc.cell.source != "ft_sensor")
     if bag is not None:
-        specs.append(recorder(bag, sc.cell.conventions, sc.cell.namespace))
+        specs.append(recorder(bag, recorded, sc.cell.namespace))
     with CellRun(specs, processes=processes, log_dir=log_dir, namespace=sc.cell.namespace,
                  command_topic=command_topic(sc.cell.conventions)) as run:
         if bag is not None or wait_for_recorder:
-            wait_recording(run, 30.0, recorded_topics(sc.cell.conventions))
+            wait_recording(run, 30.0, recorded)
         if fault:
             kinematics = run.nodes["kinematics"].stage
             meter = StepMeter(run.observer, kinematics.cell.robot.velocity_limit, kinematics.dt)

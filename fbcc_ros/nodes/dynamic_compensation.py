@@ -30,15 +30,12 @@ from fbcc_ros.pipeline.parameters import frame_id
 from fbcc_ros.ros import topics
 from fbcc_ros.ros.convert import efforts_from_cdr, joints_from_cdr, wrench_from_cdr, wrench_to_cdr
 from fbcc_ros.ros.diagnostics import counter_report, publish_diagnostics
+from fbcc_ros.ros.inputs import subscribe_input
 from fbcc_ros.ros.outlet import Outlet
 from fbcc_ros.ros.params import declare, run
 from fbcc_ros.ros.robot_description import description_for
 
 __all__ = ["TABLE", "DynamicCompensationNode"]
-
-#: How often ``wrench_qos: match`` looks for the input's publishers [s].
-MATCH_PERIOD = 0.1
-
 
 class DynamicCompensationNode(Node):
     def __init__(self, **kwargs: Any) -> None:
@@ -54,45 +51,28 @@ class DynamicCompensationNode(Node):
         self.out_compensated = Outlet(
             self.create_publisher(WrenchStamped, topics.COMPENSATED_WRENCH, 10))
         self.pub_bias = self.create_publisher(WrenchStamped, topics.BIAS, topics.PHASE_QOS)
+        self.pub_noise = self.create_publisher(WrenchStamped, topics.NOISE, topics.PHASE_QOS)
         self.out_guard = Outlet(self.create_publisher(String, topics.GUARD, topics.PHASE_QOS),
                                 latched=True)
         self.create_subscription(String, topics.REARM, self.on_rearm, 10)
         self._publish_bias(self.get_clock().now().nanoseconds * 1e-9)
-        # the wrench's input (its QoS a transport setting: the stage has none)
-        if self.stage.measured:  # the joint states carry the torques: one input, its QoS
-            wrench_input = (JointState, topics.JOINT_STATES, self.on_measured)
-        elif self.stage.virtual:
-            wrench_input = (JointState, topics.EXTERNAL_TORQUES, self.on_torques)
+        # the inputs (their topics and QoS transport settings: the stage has none)
+        joints, joints_qos = values["joint_states_topic"], values["joint_states_qos"]
+        if self.stage.measured:  # the joint states carry the torques: one input
+            subscribe_input(self, JointState, joints, self.on_measured, joints_qos)
         else:
-            wrench_input = (WrenchStamped, values["wrench_topic"], self.on_raw)
-        if self.stage.robot is not None and not self.stage.measured:
-            self.create_subscription(JointState, topics.JOINT_STATES, self.on_joints, 10,
-                                     raw=True)  # fmt: skip
-        self._input = wrench_input
-        if values["wrench_qos"] == "match":  # subscribed once a publisher is seen
-            self._matching = self.create_timer(MATCH_PERIOD, self._match)
-        else:
-            self._subscribe(values["wrench_qos"])
+            if self.stage.robot is not None:
+                subscribe_input(self, JointState, joints, self.on_joints, joints_qos)
+            if self.stage.virtual:
+                subscribe_input(self, JointState, topics.EXTERNAL_TORQUES, self.on_torques,
+                                values["wrench_qos"])  # fmt: skip
+            else:
+                subscribe_input(self, WrenchStamped, values["wrench_topic"], self.on_raw,
+                                values["wrench_qos"])  # fmt: skip
         counts = self.stage.comp.counts
         rejected = tuple(k for k in counts if k not in ("accepted", "taring"))
         publish_diagnostics(self, counter_report(lambda: self.stage.comp.counts, rejected,
                                                  "samples"))  # fmt: skip
-
-    def _subscribe(self, reliability: str) -> None:
-        kind, topic, callback = self._input  # raw: CDR bytes, decoded by fbcc_ros.ros.convert
-        self.create_subscription(kind, topic, callback, topics.input_qos(reliability), raw=True)
-
-    def _match(self) -> None:
-        """``wrench_qos: match``: subscribes with the reliability of the input's publishers
-        once one is seen (``topics.matching_reliability``), and says which."""
-        name = self.resolve_topic_name(self._input[1])
-        offered = [info.qos_profile for info in self.get_publishers_info_by_topic(name)]
-        if not offered:
-            return
-        self._matching.cancel()
-        reliability = topics.matching_reliability(offered)
-        self._subscribe(reliability)
-        self.get_logger().info(f"{name}: subscribed {reliability}, as its publishers offer")
 
     @property
     def _names(self) -> tuple[str, ...]:
@@ -163,7 +143,12 @@ class DynamicCompensationNode(Node):
             return
         if self.stage.just_tared:
             self._publish_bias(out.stamp)
-            self.get_logger().info(f"tared: bias {np.round(self.stage.comp.bias, 4).tolist()}")
+            noise = self.stage.comp.noise
+            if noise is not None:
+                self.pub_noise.publish(wrench_to_cdr(noise, self.hole_frame, out.stamp))
+            measured = "" if noise is None else f", noise {np.round(noise, 4).tolist()}"
+            bias = np.round(self.stage.comp.bias, 4).tolist()
+            self.get_logger().info(f"tared: bias {bias}{measured}")
         self.out_compensated.publish(wrench_to_cdr(out.wrench, self.hole_frame, out.stamp))
 
 

@@ -59,6 +59,7 @@ class FbccControllerNode(Node):
         sub(PoseStamped, topics.FEATURES, self.on_features, 10, raw=True)
         self.create_subscription(String, topics.KINEMATICS_STATUS, self.on_fault, 10)
         self.create_subscription(String, topics.GUARD, self.on_fault, topics.PHASE_QOS)
+        sub(WrenchStamped, topics.NOISE, self.on_noise, topics.PHASE_QOS, raw=True)
         self.create_service(Trigger, topics.START, self.on_start)
         self.create_service(Trigger, topics.ABORT, self.on_abort)
         self.create_service(Trigger, topics.RESET, self.on_reset)
@@ -93,6 +94,11 @@ class FbccControllerNode(Node):
 
     def now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
+
+    def on_noise(self, data: bytes) -> None:
+        said = self.stage.noise(wrench_from_cdr(data)[2])
+        if said:
+            self.get_logger().info(said)
 
     def on_features(self, data: bytes) -> None:
         now = self.now()

@@ -28,7 +28,7 @@ from fbcc_ros.ros.params import declare, run
 #: What a session of the cell needs for replay and report (topics.py names, relative).
 CELL_TOPICS = [
     topics.JOINT_STATES, topics.JOINT_COMMAND, topics.RAW_WRENCH, topics.COMPENSATED_WRENCH,
-    topics.BIAS,
+    topics.BIAS, topics.NOISE,
     topics.FEATURES, topics.COMMAND, topics.TCP_COMMAND, topics.PHASE, topics.CONTACT_STATE,
     topics.KINEMATICS_STATUS, topics.GUARD, topics.REARM, topics.TRUTH, topics.CONTACT_ESTIMATE,
     topics.ROBOT_DESCRIPTION,

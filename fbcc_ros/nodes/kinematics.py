@@ -45,6 +45,7 @@ from fbcc_ros.ros.convert import (
     seconds_to_stamp,
 )
 from fbcc_ros.ros.diagnostics import counter_report, publish_diagnostics
+from fbcc_ros.ros.inputs import subscribe_input
 from fbcc_ros.ros.outlet import Outlet
 from fbcc_ros.ros.params import declare, run
 from fbcc_ros.ros.robot_description import description_for
@@ -68,7 +69,8 @@ class KinematicsNode(Node):
         self.pub_joints = self.create_publisher(kind, values["command_topic"], 10)
         self.pub_status = self.create_publisher(String, topics.KINEMATICS_STATUS, 10)
         # raw: CDR bytes, decoded by fbcc_ros.ros.convert (no rclpy message objects at 1 kHz)
-        self.create_subscription(JointState, topics.JOINT_STATES, self.on_joints, 10, raw=True)
+        subscribe_input(self, JointState, values["joint_states_topic"], self.on_joints,
+                        values["joint_states_qos"])
         self.create_subscription(PoseStamped, topics.COMMAND, self.on_command, 10, raw=True)
         publish_diagnostics(
             self, counter_report(lambda: {"ik_failures": self.failures}, ("ik_failures",), "IK")

@@ -25,7 +25,7 @@ from fbcc_ros.core.compensation.wrench_guard import GuardLimits, WrenchGuard
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.kinematics.robot import pose
 from fbcc_ros.pipeline.kinematics import CELL, hole_from, robot_from
-from fbcc_ros.pipeline.parameters import HOLE_FRAME, Param
+from fbcc_ros.pipeline.parameters import HOLE_FRAME, INPUT_QOS, JOINT_STATES, Param
 
 
 def payload_params(prefix: str, mass: float, com: list[float], inertia: list[float]
@@ -69,11 +69,12 @@ TABLE = (
           read_only=False),
     Param("wrench_topic", "ft_sensor/raw", "where the raw wrench comes from (e.g. "
           "force_torque_broadcaster/wrench, the LBR stack's estimate)"),
-    Param("wrench_qos", "reliable", "reliability of the raw wrench (or joint torques) "
+    Param("wrench_qos", "reliable", "reliability of the raw wrench (or external joint torques) "
           "subscription: best_effort for a driver publishing sensor-data QoS, which a reliable "
           "subscription never hears (a best-effort one hears both); match: its publishers', "
-          "subscribed once one is seen", choices=("reliable", "best_effort", "match")),
+          "subscribed once one is seen", choices=INPUT_QOS),
     HOLE_FRAME,
+    *JOINT_STATES,
     Param("virtual_sensor", False, "wrench from the arm's joint torques instead of a sensor"),
     Param("joint_torques", "external", "the virtual sensor's torques: external (the arm's "
           "estimate, effort of external_joint_torques) or measured (effort of joint_states, less "

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike
 
@@ -165,6 +166,24 @@ class ControllerStage:
             return None
         assert isinstance(law, RobustFbcc)
         return [stamp, *law.estimate(0).as_row(law.guard_trips(0))]
+
+    def noise(self, wrench_std: ArrayLike) -> str:
+        """The compensated wrench's noise floor the compensation measured (its tare: the
+        standard deviation of each component of the wire wrench, {H} origin; it comes with the
+        tare, before an insertion); the robust law takes the components noisier than it was
+        told (``RobustFbcc.take_noise``). Returns what it did, or ``""``."""
+        law = self.sup.law
+        if not isinstance(law, RobustFbcc):
+            return ""
+        # response = B wrench (linear): the components' variances add through B²
+        basis = np.eye(6)
+        b = np.column_stack([response_from_wrench(e, self.acting_point) for e in basis])
+        std = np.sqrt(b**2 @ np.asarray(wrench_std, dtype=float) ** 2)
+        if not law.take_noise(std):
+            return ""
+        law.prepare(self.sup.dt)
+        return ("the robust law takes the measured noise (Fx, Fy, Fz, Mx, My) "
+                f"{np.round(law.params.sensor_noise, 4).tolist()}: noisier than it was told")
 
     def contact_state(self) -> str | None:
         """The boundary mapping's state per plane of the last response, ``xoz/yoz``, while

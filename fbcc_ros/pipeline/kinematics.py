@@ -26,7 +26,7 @@ from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.kinematics.cell import CellKinematics, TcpCommand, aligned_hole_at
 from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel, Tool
 from fbcc_ros.core.kinematics.robot import pose as pose_of
-from fbcc_ros.pipeline.parameters import HOLE_FRAME, Param
+from fbcc_ros.pipeline.parameters import HOLE_FRAME, JOINT_STATES, Param
 
 #: The most control periods a command may take to reach, from the measured joints: as many as
 #: the controller steps one late sample by.
@@ -75,6 +75,7 @@ TABLE = (
           "forward_position_controller/commands"),
     Param("base_frame", "", "frame_id of poses in the base frame; empty: the model's root link"),
     HOLE_FRAME,
+    *JOINT_STATES,
 )  # fmt: skip
 
 

@@ -16,7 +16,8 @@ from typing import Any
 from fbcc_ros.core.errors import ConfigError, closest
 from fbcc_ros.core.param_files import flatten
 
-__all__ = ["HOLE_FRAME", "Param", "flatten", "frame_id", "resolve", "unknown_names"]
+__all__ = ["HOLE_FRAME", "JOINT_STATES", "Param", "flatten", "frame_id", "resolve",
+           "unknown_names"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -105,3 +106,16 @@ def frame_id(values: dict[str, Any], name: str) -> str:
     if not value or any(c.isspace() for c in value):
         raise ConfigError(name, value, "a frame name: not empty, no spaces")
     return str(value)
+
+
+#: The choices of an input's QoS parameter (:mod:`fbcc_ros.ros.inputs`).
+INPUT_QOS = ("reliable", "best_effort", "match")
+#: Where a node hears the arm's joint states, and with which reliability: transport settings
+#: of the nodes that read them (kinematics, dynamic_compensation).
+JOINT_STATES = (
+    Param("joint_states_topic", "joint_states", "where the arm's joint states come from (e.g. "
+          "a joint_state_broadcaster's)"),
+    Param("joint_states_qos", "reliable", "reliability of the joint states subscription: "
+          "best_effort for a publisher of sensor-data QoS; match: its publishers', subscribed "
+          "once one is seen", choices=INPUT_QOS),
+)

@@ -22,6 +22,10 @@ COMPENSATED_WRENCH = "ft_sensor/compensated"
 #: The bias the compensation subtracts (sensor frame), latched: the configured one at start-up,
 #: the measured one once the tare is done; it makes a bag's compensation reproducible offline.
 BIAS = "ft_sensor/bias"
+#: The compensated wrench's noise floor, measured by the tare (WrenchStamped: the standard
+#: deviation of each component, in {H}), latched: the robust law takes it where the source is
+#: noisier than it was told (a virtual sensor's).
+NOISE = "ft_sensor/noise"
 FEATURES = "fbcc/features"
 COMMAND = "fbcc/command"
 TCP_COMMAND = "fbcc/tcp_command"

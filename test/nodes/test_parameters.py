@@ -76,6 +76,9 @@ TOGETHER: dict[str, dict[str, Any]] = {
     "dynamic_compensation.locked_joints": {**PANDA, "placement": "wrist"},
     "dynamic_compensation.flange_frame": {"placement": "wrist"},
     "dynamic_compensation.tool_frame": {"placement": "wrist"},
+    # the compensation reads joint states for a wrist sensor (where it is)
+    **{f"dynamic_compensation.{name}": {"placement": "wrist"}
+       for name in ("joint_states_topic", "joint_states_qos")},
     **{name: {"wrist_sensor": True} for name in ("wrist_payload.mass", "wrist_payload.com",
        "wrist_payload.inertia", "wrist_bias", "wrist_noise")},
 }

@@ -46,3 +46,31 @@ def test_runtime_limits_are_only_tightened() -> None:
     assert (stage.sup.limits.max_step, stage.sup.limits.timeout) == (1e-6, 0.01)
     stage.apply(values)
     assert stage.sup.limits == stage.configured
+
+
+def test_the_robust_law_takes_a_measured_noise_only_where_the_source_is_noisier() -> None:
+    """The tare's noise floor (wire wrench, {H} origin): an F/T sensor's, near what the law was
+    told, changes nothing; a virtual sensor's moments, 15 times over it, replace the moment
+    noise (moved to the acting point) and the law's parameters; Table I's law has none."""
+    import numpy as np
+
+    from fbcc_ros.core.control.robust import RobustFbcc
+
+    stage = controller.ControllerStage(resolve("fbcc_controller", controller.TABLE, {
+        "scenario": "config/scenarios/robust_interference.yaml"}))  # fmt: skip
+    law = stage.sup.law
+    assert isinstance(law, RobustFbcc)
+    told = law.params.sensor_noise
+    before = law._parameters(stage.sup.dt).copy()
+    assert stage.noise([0.06, 0.04, 0.05, 0.0025, 0.0015, 0.001]) == ""
+    assert law.params.sensor_noise == told
+    said = stage.noise([0.05, 0.05, 0.05, 0.03, 0.03, 0.01])
+    assert "takes the measured noise" in said
+    used = np.array(law.params.sensor_noise)
+    assert used[:3].tolist() == list(told[:3])  # the forces as told
+    lever = abs(stage.acting_point[2])  # the acting point below the {H} origin
+    np.testing.assert_allclose(used[3:], np.hypot(0.03, lever * 0.05), rtol=1e-12)
+    assert not np.array_equal(law._parameters(stage.sup.dt), before)
+    table1 = controller.ControllerStage(resolve("fbcc_controller", controller.TABLE, {
+        "scenario": "config/scenarios/table1_clearance_label3.yaml"}))  # fmt: skip
+    assert table1.noise([1.0] * 6) == ""

@@ -260,6 +260,10 @@ TRANSPORT = {
     "kinematics.command_topic":
         f"{_COMMANDED}test_joint_positions_for_a_forward_position_controller",
     "kinematics.base_frame": f"{_COMMANDED}test_the_flange_pose_for_a_cartesian_controller",
+    **{f"{node}.{name}": ("test/nodes/test_joint_states_input.py::"
+                          "test_the_joint_states_are_read_where_and_as_told")
+       for node in ("dynamic_compensation", "kinematics")
+       for name in ("joint_states_topic", "joint_states_qos")},
     **{f"{node}.hole_frame": ("test/nodes/test_frame_names.py::test_topics_in_the_hole_frame_"
                               "carry_its_name_and_a_tool_frame_places_the_tool")
        for node in ("dynamic_compensation", "kinematics", "fbcc_controller")},

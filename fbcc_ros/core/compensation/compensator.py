@@ -88,7 +88,8 @@ class SensorSetup:
         tare_samples: When > 0, the first this many accepted readings are not output but
             averaged into the bias, ``b = mean(reading - payload wrench)``: the usual way to
             zero a sensor under the hole (whose weight and bias a static fit cannot tell apart)
-            before an insertion. The peg must not touch the hole meanwhile.
+            before an insertion. The peg must not touch the hole meanwhile. Their spread, as
+            output, is the sensor's noise floor (``Compensator.noise``).
     """
 
     placement: Placement = "under_hole"
@@ -180,6 +181,10 @@ class Compensator:
         self.guard = WrenchGuard(setup.guard)
         #: the guard refused the tare (the configured bias stays)
         self.tare_refused = False
+        #: the output's noise floor measured by the tare: the standard deviation of each
+        #: component (fx, fy, fz, mx, my, mz in {H}, as output, before the output's filters) of
+        #: the readings averaged into the bias; None before a tare (or without one)
+        self.noise: FloatArray | None = None
         self._joints: tuple[float, FloatArray, FloatArray, FloatArray] | None = None
         if setup.placement == "wrist":
             if robot is None:
@@ -286,7 +291,7 @@ class Compensator:
             return None
         to_hole, payload = state
         if self.taring:
-            self._add_tare(stamp, wrench, payload)
+            self._add_tare(stamp, wrench, payload, to_hole)
             return None
         try:
             contact = subtract(wrench, payload, self._bias)
@@ -313,7 +318,8 @@ class Compensator:
         self._lowpass = LowPass(lowpass_hz)
         self._band = np.repeat(band, 3)
 
-    def _add_tare(self, stamp: float, wrench: ArrayLike, payload: FloatArray) -> None:
+    def _add_tare(self, stamp: float, wrench: ArrayLike, payload: FloatArray,
+                  to_hole: FloatArray) -> None:  # fmt: skip
         try:  # the payload alone: the reading with a zero bias
             self._tare.append(subtract(wrench, payload, np.zeros(6)))
         except InputError:
@@ -325,6 +331,9 @@ class Compensator:
             measured = np.mean(self._tare, axis=0)  # b = mean(reading - payload wrench)
             if self.guard.tare(measured, self._bias):  # else tripped: the bias stays
                 self._bias = measured
+                if len(self._tare) > 1:  # their spread, as output: C_H = T C_S Tᵀ
+                    spread = to_hole @ np.cov(np.array(self._tare).T) @ to_hole.T
+                    self.noise = np.sqrt(np.clip(np.diag(spread), 0.0, None))
             else:
                 self.tare_refused = True
 

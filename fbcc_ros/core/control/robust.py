@@ -64,8 +64,10 @@ had arrived.
 
 **Depth.** The insertion advances at ``insertion.speed`` while the lateral loops are settled and
 slows, holds or backs off while they are not: with the lateral effort
-``e = max_j |u'_j| / U_j`` (u' the rows as the depth loop sees them, below; ``U`` =
-``offset_force`` for dx, dy and ``tilt_effort`` for the tilts)
+``e = max_j max(|u'_j| - n_j, 0) / U_j`` (u' the rows as the depth loop sees them, below;
+``n_j`` their noise there, ``dead_band`` deviations of ``sensor_noise`` through that filter, so
+noise alone does not hold the depth; ``U`` = ``offset_force`` for dx, dy and ``tilt_effort`` for
+the tilts)
 and its identified depth sensitivity ``∂e/∂l`` (the RLS's ``b_j``), the depth rate is
 
 .. math::
@@ -80,6 +82,13 @@ the dither notches. The command never leads the measured depth by more than
 ``v * depth_lead``, so a hold takes effect within a sample. An axial force above
 ``fz_back_off`` backs off.
 
+**The noise it is told.** ``sensor_noise`` sets the dead zone, the stiffness's noise floor, the
+guard's threshold and the depth loop's ``n_j``. An F/T sensor's is the default. A source noisier
+than that (the LBR's virtual sensor from its measured torques reads its moments 15 times
+noisier) would hold the depth on its noise: the compensation measures the noise floor in its
+tare, and :meth:`RobustFbcc.take_noise` takes each component that is over :data:`NOISIER` times
+the one told.
+
 State per trial lives in one float array, stepped by one compiled kernel for the
 simulator's batch and the controller's single row alike
 (:mod:`fbcc_ros.core.control.robust_kernel`).
@@ -87,6 +96,7 @@ simulator's batch and the controller's single row alike
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any, ClassVar
 
 import numpy as np
@@ -101,6 +111,11 @@ from fbcc_ros.core.control.axis_insertion import AxisInsertion
 from fbcc_ros.core.control.phase import Phase
 from fbcc_ros.core.control.robust_params import RobustParams
 from fbcc_ros.core.errors import InputError
+
+#: A measured noise over this many times the one the law was told replaces it
+#: (:meth:`RobustFbcc.take_noise`); under it the told one stays: a tare's spread of a few hundred
+#: readings is itself uncertain by about 10 %, and a law told right should not move with it.
+NOISIER = 2.0
 
 
 class RobustFbcc:
@@ -120,6 +135,7 @@ class RobustFbcc:
 
         self.nominal = nominal
         self.params = params or RobustParams()
+        self._told_noise = np.asarray(self.params.sensor_noise, dtype=float)
         self.insertion = insertion or Insertion()
         self._coeffs: dict[float, FloatArray] = {}
         self._prm: dict[float, FloatArray] = {}
@@ -131,6 +147,21 @@ class RobustFbcc:
     def preload() -> None:
         """Load the compiled step now, not on the first period (:func:`rk.load_step`)."""
         rk.load_step()
+
+    def take_noise(self, measured: ArrayLike) -> bool:
+        """The noise of (Fx, Fy, Fz, Mx, My) measured at the cell [N, N·m]: a component over
+        :data:`NOISIER` times the one the law was told replaces it (the source is noisier:
+        a virtual sensor's), the others stay as told. Returns whether that changed the law's;
+        the new noise applies from the next :meth:`prepare`."""
+        m = np.asarray(measured, dtype=float)
+        if m.shape != (5,) or not np.isfinite(m).all():
+            raise InputError("noise", m.tolist(), "five finite standard deviations")
+        used = tuple(np.where(m > NOISIER * self._told_noise, m, self._told_noise).tolist())
+        if used == tuple(self.params.sensor_noise):
+            return False
+        self.params = dataclasses.replace(self.params, sensor_noise=used)  # type: ignore[arg-type]
+        self._prm.clear()
+        return True
 
     # -- the ComplianceLaw interface ----------------------------------------------------------
     def prepare(self, dt: float) -> None:

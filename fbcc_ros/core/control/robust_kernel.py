@@ -64,7 +64,8 @@ N_MAIN = 89
 P_NOTCH_END = P_NOTCH + 12  # (b0, b1, a2) of the notch at each row's dither frequency
 P_SETTLE = P_NOTCH_END  # the band of every row once the depth is reached
 P_DEPTH_F = P_NOTCH_END + 1  # the depth loop's low-pass (filters.second_order_coefficients)
-N_PARAMS = P_DEPTH_F + 6
+P_DNOISE = P_DEPTH_F + 6  # what the depth loop discounts of each row: its noise there (4)
+N_PARAMS = P_DNOISE + 4
 
 
 def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray:
@@ -119,6 +120,10 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
     prm[P_SETTLE] = p.settle_force
     prm[P_DEPTH_F : P_DEPTH_F + 6] = second_order_coefficients(
         p.depth_filter_frequency, p.filter_damping, dt)  # fmt: skip
+    # the depth loop's effort is a row above its noise through that faster filter, as the
+    # lateral loops' dead band: noise alone (a virtual sensor's) must not hold the depth
+    passed = math.sqrt(min(1.0, p.depth_filter_frequency * dt / (4 * p.filter_damping)))
+    prm[P_DNOISE : P_DNOISE + 4] = p.dead_band * su * passed
     return prm
 
 
@@ -210,8 +215,9 @@ def robust_rows(
                 ident.back_off(idn[i], j, prm[P_G_BACKOFF])
                 m[C_TRIPS] += 1.0
                 m[C_HOLD] = m[C_T] + prm[P_G_HOLD]
-            if abs(fast) / scale > effort:
-                effort, j_max = abs(fast) / scale, j
+            above = max(abs(fast) - prm[P_DNOISE + j], 0.0) / scale
+            if above > effort:
+                effort, j_max = above, j
         running = m[C_STOPPED] == 0.0
         m[C_T] += dt
         m[C_SAMPLES] += 1.0

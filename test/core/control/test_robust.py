@@ -336,15 +336,18 @@ _CHANGED: dict[str, tuple[object, dict[str, object]]] = {
     "phase_margin": (math.radians(40.0), {"loop_delay": 0.05}),
     "loop_delay": (0.03, {}),
     "stiffness_min": (1e11, {}),
-    "guard_cycles": (2, {}),  # the default's 8 half-waves do not trip on this run
-    "guard_amplitude": (4000.0, {"guard_cycles": 2}),  # above the trips' amplitude
-    "guard_backoff": (2.0, {"guard_cycles": 2}),
-    "guard_hold": (0.2, {"guard_cycles": 2}),
+    # the guard on this run: half-waves over 10 filtered-noise deviations (the default's 40 and
+    # 8 half-waves do not trip on it)
+    "guard_cycles": (2, {"guard_amplitude": 10.0}),
+    "guard_amplitude": (10.0, {"guard_cycles": 2}),  # under the run's swings: it trips
+    "guard_backoff": (2.0, {"guard_cycles": 2, "guard_amplitude": 10.0}),
+    "guard_hold": (0.2, {"guard_cycles": 2, "guard_amplitude": 10.0}),
     "fz_back_off": (5.0, {}),  # below the run's peak Fz (9.3 N)
     "F_ext_limit": (15.0, {"fz_back_off": 10.0}),
     "coupling_limit": (0.5, {}),
     "plane_gate": (False, {}),
-    "guard_growth": (2.0, {"guard_cycles": 2}),  # only a growing oscillation counts
+    # only a growing oscillation counts; a lower amplitude lets the run's smaller swings count
+    "guard_growth": (2.0, {"guard_cycles": 2, "guard_amplitude": 10.0}),
 }
 #: Parameters that act only when the commands take effect late (the delayed plant).
 _DELAYED = {"depth_lead": 1e-4, "lateral_lead": 1.0, "tilt_lead": 1e-4}
