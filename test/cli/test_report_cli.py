@@ -29,9 +29,11 @@ def test_the_report_of_a_recorded_session(tmp_path: Path, capsys) -> None:
     assert summary["messages"] == {t: bag.counts[t] for t in bag.topics}
     assert summary["truncated"] == "" and summary["commands"] == bag.counts["/fbcc/command"]
     assert [p["phase"] for p in summary["phases"]] == ["idle", "armed", "inserting", "inserted"]
-    # the scenario's 4 mm at no more than 5 mm/s from the first command (the robust law slows
-    # or holds the depth while the lateral loops settle), within the 1.6 s session
-    assert 0.8 - 0.01 <= summary["insertion_time_s"] <= 1.6
+    # the scenario's 4 mm at 5 mm/s from the first command (the robust law slows or holds the
+    # depth while the lateral loops settle), within the 1.6 s session; counted in control
+    # periods, at least one per sample: the mock's jittered stamps (two 64 µs apart in this
+    # session) add periods, 5.1-5.2 mm/s of stamp time here, so 5 % faster at most
+    assert 0.8 / 1.05 <= summary["insertion_time_s"] <= 1.6
     # the depth ends at 4 mm along the peg's own axis (the axis depth): the features' l, in
     # this untilted hole, differs by at most 2 r |theta| of the peg's residual tilt
     final = summary["final_features"]
