@@ -141,8 +141,10 @@ def test_in_one_process_the_nodes_are_chained_and_every_topic_is_still_published
                        5.0, "the restarted controller did not hear the chain")  # fmt: skip
     with CellRun(cell_nodes(path, scenario.load(path), "fbcc"), chain=False) as run:
         assert run.chained == []
-        # the wrench, the features, and the two fault reports (kinematics, guard)
-        assert len(list(run.nodes["fbcc_controller"].subscriptions)) == 4
+        # the wrench, the features, the two fault reports (kinematics, guard) and the noise floor
+        heard = sorted(s.topic_name for s in run.nodes["fbcc_controller"].subscriptions)
+        assert heard == ["/fbcc/features", "/fbcc/guard", "/fbcc/kinematics_status",
+                         "/ft_sensor/compensated", "/ft_sensor/noise"], heard
 
 
 @REALTIME
