@@ -28,6 +28,10 @@ import numpy as np
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.errors import ConfigError
 
+#: Peaks of this many standard deviations of a signal's noise, eight half-waves in a row, are
+#: not noise: the least ``min_amplitude`` the robust law gives a row (``robust_kernel``).
+NOISE_PEAKS = 8.0
+
 #: Columns of one signal's guard state: last sign, current half-wave peak, previous peak,
 #: growing half-waves in a row.
 N_STATE = 4

@@ -65,7 +65,8 @@ P_NOTCH_END = P_NOTCH + 12  # (b0, b1, a2) of the notch at each row's dither fre
 P_SETTLE = P_NOTCH_END  # the band of every row once the depth is reached
 P_DEPTH_F = P_NOTCH_END + 1  # the depth loop's low-pass (filters.second_order_coefficients)
 P_DNOISE = P_DEPTH_F + 6  # what the depth loop discounts of each row: its noise there (4)
-N_PARAMS = P_DNOISE + 4
+P_SETTLE_GAIN = P_DNOISE + 4  # the lateral loops' gain once the depth is reached (of ω_c)
+N_PARAMS = P_SETTLE_GAIN + 1
 
 
 def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray:
@@ -109,7 +110,13 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
     # noise floor of each row: the filtered noise over the resolution [N/m, N/rad]
     resolution = np.array([p.offset_resolution] * 2 + [p.tilt_resolution] * 2)
     prm[P_NFLOOR_X : P_NFLOOR_TY + 1] = filtered / resolution
-    prm[P_G_MIN_X : P_G_MIN_TY + 1] = p.guard_amplitude * filtered
+    # a half-wave counts above guard_amplitude deviations or guard_effort of the row's hold,
+    # whichever is lower (a tilt row's 40 deviations are over its hold: the depth loop would
+    # back off on an oscillation before the guard saw it), never under GUARD_NOISE_PEAKS
+    hold = np.array([p.offset_force] * 2 + [p.tilt_effort] * 2)
+    prm[P_G_MIN_X : P_G_MIN_TY + 1] = np.maximum(
+        np.minimum(p.guard_amplitude * filtered, p.guard_effort * hold),
+        guard_mod.NOISE_PEAKS * filtered)  # fmt: skip
     prm[P_LEAD_X], prm[P_LEAD_T] = p.lateral_lead, p.tilt_lead
     prm[P_TILT_DEPTH] = p.tilt_depth
     # fade of the dither: a first-order lag of one period of the slowest dither
@@ -118,6 +125,7 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
         prm[P_NOTCH + 3 * j : P_NOTCH + 3 * j + 3] = notch_coefficients(
             prm[P_F0 + j] / dt, NOTCH_QUALITY, dt)  # fmt: skip
     prm[P_SETTLE] = p.settle_force
+    prm[P_SETTLE_GAIN] = p.settle_gain
     prm[P_DEPTH_F : P_DEPTH_F + 6] = second_order_coefficients(
         p.depth_filter_frequency, p.filter_damping, dt)  # fmt: skip
     # the depth loop's effort is a row above its noise through that faster filter, as the
@@ -251,9 +259,12 @@ def robust_rows(
             det = jac[0] * jac[3] - jac[1] * jac[2]
             v_d = (jac[3] * excess[r_d] - jac[1] * excess[r_t]) / det
             v_t = (jac[0] * excess[r_t] - jac[2] * excess[r_d]) / det
-            m[C_INT + ident.ROWS[r_d]] += prm[P_WC] * v_d * dt
+            # at the depth the fit is no longer excited while the tilt's stiffness still
+            # rises (as l³): the loops settle at a fraction of ω_c, inside the gain margin
+            wc = prm[P_WC] if m[C_REACHED] == 0.0 else prm[P_SETTLE_GAIN] * prm[P_WC]
+            m[C_INT + ident.ROWS[r_d]] += wc * v_d * dt
             if depth >= prm[P_TILT_DEPTH]:  # at the entry a tilt row cannot tell tilt
-                m[C_INT + ident.ROWS[r_t]] += prm[P_WC] * v_t * dt
+                m[C_INT + ident.ROWS[r_t]] += wc * v_t * dt
         for j in range(4):
             f = ident.ROWS[j]
             k_used = k_row[j]

@@ -72,6 +72,11 @@ class RobustParams:
         guard_growth, guard_cycles: :class:`fbcc_ros.core.control.guard.GuardParams`; the guard's
             minimum amplitude is ``guard_amplitude`` times the row's filtered noise.
         guard_amplitude: See above (dimensionless).
+        guard_effort: A half-wave also counts above this fraction of its row's hold
+            (``offset_force``, ``tilt_effort``) when that is lower than ``guard_amplitude``
+            deviations, but never under :data:`~fbcc_ros.core.control.guard.NOISE_PEAKS`
+            deviations. A tilt row's 40 deviations (3.7) are over its hold of 3: an
+            oscillation there backed the depth off before the guard counted it.
         guard_backoff: Factor by which a tripped row's gain falls (> 1).
         guard_hold: How long the depth holds after a trip [s]. The back-off acts at once; on
             the clearance studies of seeds 13 and 3 a hold of 0.2 s left 7 and 6 parts over
@@ -81,6 +86,10 @@ class RobustParams:
             the law accepts. A still peg cannot wedge itself; one whose loops integrate noise
             at the floor's gain drifts by up to the resolutions below, more than a sub-µm
             clearance, and a stiff part then rang into 200 N at the depth.
+        settle_gain: The lateral loops' crossover once the depth is reached, as a fraction of
+            the one they ran with. There nothing excites the fit while the tilt's stiffness
+            still rises (eq. 8: as l³ over the last millimetre); at the full crossover the tilt
+            rows of stiff interference parts rang at the depth and the depth backed off.
         coupling_limit: How much of a plane's identified coupling the law inverts:
             |J01 J10| <= coupling_limit J00 J11 (0: the rows alone, as FBCC's A(l)).
         plane_gate: A plane whose two rows are both inside their dead band holds (nothing to
@@ -124,9 +133,11 @@ class RobustParams:
     guard_growth: float = 0.9
     guard_cycles: int = 8
     guard_amplitude: float = 40.0
+    guard_effort: float = 0.25
     guard_backoff: float = 4.0
     guard_hold: float = 0.05
     settle_force: float = 0.25
+    settle_gain: float = 0.25
     coupling_limit: float = 0.0
     plane_gate: bool = True
     offset_resolution: float = 1e-6
@@ -141,7 +152,7 @@ class RobustParams:
         "stiffness_min", "release", "dither_force", "dither_effort", "dither_max_offset",
         "dither_max_tilt", "offset_force", "tilt_effort", "depth_bandwidth",
         "depth_filter_frequency", "depth_lead", "fz_back_off", "guard_amplitude",
-        "guard_backoff", "guard_hold", "F_ext_limit",
+        "guard_backoff", "guard_hold", "F_ext_limit", "guard_effort", "settle_gain",
         "offset_resolution", "tilt_resolution", "phase_margin", "lateral_lead", "tilt_lead",
     )  # fmt: skip
 
@@ -174,6 +185,8 @@ class RobustParams:
         t = self.tilt_depth
         if isinstance(t, bool) or not isinstance(t, (int, float)) or not 0.0 <= t <= 5e-3:
             raise ConfigError("tilt_depth", t, "a depth in [0, 0.005] m")
+        if self.settle_gain > 1.0:
+            raise ConfigError("settle_gain", self.settle_gain, "a fraction in (0, 1] of ω_c")
         if self.guard_backoff <= 1.0:
             raise ConfigError("guard_backoff", self.guard_backoff, "a factor > 1")
         guard_mod.GuardParams(self.guard_growth, self.guard_cycles, 1.0)  # checks those two
