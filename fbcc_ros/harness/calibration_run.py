@@ -82,7 +82,6 @@ class CalibrationMover(Node):
 def calibration_specs(scenario_path: str, poses: int, hold: float, processes: bool
                       ) -> tuple[list[NodeSpec], scenario_io.Scenario]:  # fmt: skip
     """The mock (its wrist sensor on) and the mover, for the scenario's robot and stack."""
-    from fbcc_ros.nodes.bringup import command_topic
     from fbcc_ros.nodes.mock_cell import MockCellNode
     from fbcc_ros.pipeline.mock_cell import LBR_NAME
 
@@ -94,7 +93,7 @@ def calibration_specs(scenario_path: str, poses: int, hold: float, processes: bo
     robot = RobotModel.from_name(cell.model, lbr_name=LBR_NAME if cell.conventions == "lbr"
                                  else "")  # fmt: skip
     mover = functools.partial(CalibrationMover, robot, sc.rate_hz,
-                              command_topic(cell.conventions), poses, hold)
+                              topics.joint_command(cell.conventions), poses, hold)
     return [NodeSpec("mock_cell", MockCellNode, {**mock.parameters, "wrist_sensor": True},
                      own_process=processes, files=mock.files, namespace=cell.namespace),
             NodeSpec("calibration_motion", mover, namespace=cell.namespace)], sc  # fmt: skip

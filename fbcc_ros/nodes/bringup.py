@@ -153,11 +153,6 @@ def recorded_topics(conventions: str, arm_sensing: bool = False) -> list[str]:
     return [t for t in CELL_TOPICS if t not in skip] + stack
 
 
-def command_topic(conventions: str) -> str:
-    """Where the joint command goes beside the stack the mock plays."""
-    return topics.LBR_COMMAND if conventions == "lbr" else topics.JOINT_COMMAND
-
-
 def recorder(bag: Path, recorded: list[str], namespace: str = "") -> NodeSpec:
     """The cell's recorder, in its own process, writing ``recorded`` into ``bag``."""
     from fbcc_ros.nodes.fbcc_record import FbccRecordNode
@@ -268,7 +263,7 @@ def run_cell(
     if bag is not None:
         specs.append(recorder(bag, recorded, sc.cell.namespace))
     with CellRun(specs, processes=processes, log_dir=log_dir, namespace=sc.cell.namespace,
-                 command_topic=command_topic(sc.cell.conventions)) as run:
+                 command_topic=topics.joint_command(sc.cell.conventions)) as run:
         if bag is not None or wait_for_recorder:
             wait_recording(run, 30.0, recorded)
         if fault:

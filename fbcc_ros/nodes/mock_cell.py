@@ -64,8 +64,8 @@ class MockCellNode(Node):
         self.pub_truth = self.create_publisher(Float64MultiArray, topics.TRUTH, 100)
         # raw: CDR bytes, decoded by fbcc_ros.ros.convert (no rclpy message objects at 1 kHz)
         sub = self.create_subscription
-        sub(Float64MultiArray, topics.LBR_COMMAND if self.lbr else topics.JOINT_COMMAND,
-            self.on_command, 10, raw=True)  # fmt: skip
+        sub(Float64MultiArray, topics.joint_command(values["conventions"]), self.on_command, 10,
+            raw=True)  # fmt: skip
         # the stack's robot_state_publisher, played (not with a model from the topic)
         if values["publish_description"] and not needs_description(values):
             self.pub_description = self.create_publisher(

@@ -8,6 +8,14 @@ JOINT_STATES = "joint_states"
 JOINT_COMMAND = "joint_command"
 #: lbr_fri_ros2_stack's joint position command (its forward_position_controller).
 LBR_COMMAND = "forward_position_controller/commands"
+
+
+def joint_command(conventions: str) -> str:
+    """Where the joint command goes beside the stack the mock plays (``conventions``: fbcc or
+    lbr)."""
+    return LBR_COMMAND if conventions == "lbr" else JOINT_COMMAND
+
+
 #: lbr_fri_ros2_stack's estimated wrench at its lbr_link_ee (its force_torque_broadcaster).
 LBR_WRENCH = "force_torque_broadcaster/wrench"
 #: The arm's external joint torques (JointState, in ``effort``): a virtual sensor's input.
