@@ -22,7 +22,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -34,10 +34,11 @@ from fbcc_ros.ros.params import settle
 
 @dataclass
 class NodeSpec:
-    """A node to run: its name (and module ``fbcc_ros.nodes.<name>``), its class for the
-    in-process mode, its parameter overrides (applied after its parameter ``files``), whether
-    it runs in its own process even when the others share this one (the recorder: its disk
-    writes stay off the loop's core), and its namespace."""
+    """A node to run: its name, its class for the in-process mode, its parameter overrides
+    (applied after its parameter ``files``), whether it runs in its own process even when the
+    others share this one (the recorder: its disk writes stay off the loop's core), its
+    namespace, and the command line that runs it as a process (``python -m`` and its
+    arguments; default ``fbcc_ros.nodes.<name>``)."""
 
     name: str
     factory: Callable[..., Any]
@@ -45,6 +46,7 @@ class NodeSpec:
     own_process: bool = False
     files: tuple[Path, ...] = ()
     namespace: str = ""
+    module: tuple[str, ...] = ()
 
 
 #: The chain links in one process: (upstream node, its outlet, downstream node, its callback).
@@ -189,8 +191,8 @@ class CellRun:
                             f"({sorted(self.nodes)})")  # fmt: skip
         if parameters:
             index = self.specs.index(spec)
-            spec = self.specs[index] = NodeSpec(name, spec.factory,
-                                                {**spec.parameters, **parameters})  # fmt: skip
+            spec = self.specs[index] = replace(spec, parameters={**spec.parameters,
+                                                                 **parameters})  # fmt: skip
         old = self.nodes.pop(name)
         for up_name, outlet, down_name, _ in CHAIN:  # nothing calls into the dead node
             if down_name == name and hasattr(self.nodes.get(up_name), outlet):
@@ -223,7 +225,8 @@ class CellRun:
     def _spawn(self, spec: NodeSpec) -> None:
         self.log_dir.mkdir(parents=True, exist_ok=True)
         files = [arg for f in spec.files for arg in ("--params-file", str(f))]
-        cmd = [sys.executable, "-m", f"fbcc_ros.nodes.{spec.name}", "--ros-args", *files,
+        module = spec.module or (f"fbcc_ros.nodes.{spec.name}",)
+        cmd = [sys.executable, "-m", *module, "--ros-args", *files,
                *ros_args(spec.parameters)[1:]]  # the files, then the values over them
         if spec.namespace:
             cmd += ["-r", f"__ns:={spec.namespace}"]

@@ -5,7 +5,9 @@ commands back) and the same observer. The *bare* chain has three nodes with our 
 message types and subscriptions, doing no work: compensation copies the wrench, the controller
 answers each wrench with a fixed pose stamped with the sample's stamp, the kinematics answers
 with the last joint positions. So the difference between the two is what our computation and
-our message handling cost. Figures per run:
+our message handling cost. Either chain runs in one process or with each node in its own
+(``processes``: the bare nodes through :func:`main`), and each is compared with the other in the
+same shape. Figures per run:
 
 While it measures, the observer listens only to what the figures need (joint commands, TCP
 commands, the phase), not to the truth, compensated wrenches and features the bringup watches:
@@ -89,6 +91,13 @@ class BareKinematics(Node):
             self.pub_tcp.publish(msg)
 
 
+#: This module, which runs a bare node in its own process (:func:`main`).
+MODULE = "fbcc_ros.harness.loop_bench"
+#: The bare chain's nodes by name.
+BARE = {"dynamic_compensation": BareCompensation, "kinematics": BareKinematics,
+        "fbcc_controller": BareController}  # fmt: skip
+
+
 @dataclass
 class LoopFigures:
     chain: str
@@ -141,13 +150,9 @@ def _measure(
 
     sc = scenario_io.load(path)
     specs = cell_nodes(path, sc, "fbcc", processes=processes)
-    if chain == "bare":
-        if processes:
-            raise ValueError("the bare chain runs in one process only")
-        bare = (BareCompensation, BareKinematics, BareController)
-        specs = [specs[0]] + [
-            NodeSpec(s.name, cls) for s, cls in zip(specs[1:], bare, strict=True)
-        ]
+    if chain == "bare":  # the mock stays; each of our nodes is replaced by its bare twin
+        specs = [specs[0]] + [NodeSpec(s.name, BARE[s.name], own_process=s.own_process,
+                                       module=(MODULE, s.name)) for s in specs[1:]]  # fmt: skip
     if bag is not None:
         specs.append(recorder(bag, recorded_topics("fbcc")))
     with CellRun(specs, processes=processes, probe=True, chain=chained) as run:
@@ -175,3 +180,17 @@ def _measure(
         float(np.percentile(latency, 99)),
         cpu,
     )
+
+
+def main() -> None:
+    """``python -m fbcc_ros.harness.loop_bench NAME --ros-args ...``: the bare node ``NAME``
+    (a key of :data:`BARE`) in its own process, for the bare chain as processes."""
+    import sys
+
+    from fbcc_ros.ros.params import run
+
+    run(BARE[sys.argv[1]])
+
+
+if __name__ == "__main__":
+    main()
