@@ -10,7 +10,8 @@ import pytest
 import yaml
 
 from fbcc_ros.core.errors import ConfigError
-from fbcc_ros.harness.cell_nodes import NODES, PROFILES, CellSetup, cell_nodes
+from fbcc_ros.core.param_files import file_parameters
+from fbcc_ros.harness.cell_nodes import NODES, PROFILES, SOURCE_PARAMETERS, CellSetup, cell_nodes
 from fbcc_ros.pipeline import compensation, controller, kinematics, mock_cell
 from fbcc_ros.pipeline.parameters import resolve
 
@@ -64,6 +65,15 @@ def test_the_lbr_profile_reads_the_stacks_joint_torques() -> None:
     comp = nodes["dynamic_compensation"]
     assert comp["virtual_sensor"] and comp["joint_torques"] == "measured"
     assert nodes["mock_cell"]["conventions"] == "lbr" and nodes["mock_cell"]["arm_sensing"]
+
+
+def test_the_rehearsals_measured_torque_source_is_what_the_lbr_profile_ships() -> None:
+    """The rehearsal sets the source's values over the profile (a scenario may pick another
+    source); for the profile's own source they are the shipped file's, so the rehearsal
+    runs what a real cell runs."""
+    shipped = file_parameters((ROOT / "config/profiles/lbr.yaml",), "dynamic_compensation")
+    rehearsed = SOURCE_PARAMETERS["measured_torques"]
+    assert {k: shipped.get(k) for k in rehearsed} == rehearsed
 
 
 @pytest.mark.parametrize(("setup", "match"), [
