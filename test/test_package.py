@@ -125,6 +125,28 @@ def test_mapping_study_writes_its_tables(tmp_path: Path) -> None:
     assert (tmp_path / "mapping_study.png").stat().st_size > 1000
 
 
+def test_state_study_writes_its_tables_and_confusion_matrices(tmp_path: Path) -> None:
+    """--estimator: every method of every case scored, its confusion matrix counting each
+    scored sample once (read back from the JSON)."""
+    import json
+
+    from fbcc_ros.cli import mapping_study
+
+    assert mapping_study.main(["--estimator", "--out", str(tmp_path), "--samples", "100",
+                               "--trials", "2"]) == 0  # fmt: skip
+    results = json.loads((tmp_path / "state_study.json").read_text())
+    cases = [k for k in results if k != "settings"]
+    assert len(cases) == 10  # per fit: two ways of drawing, three stiffnesses
+    for case in cases:
+        methods = {m: r for m, r in results[case].items() if isinstance(r, dict)}
+        assert len(methods) == 3
+        for r in methods.values():
+            assert sum(map(sum, r["confusion"])) == r["samples"] > 0
+    assert "| interference | insertions, k 1 GPa | estimator, history |" in (
+        tmp_path / "state_study.md").read_text()
+    assert (tmp_path / "state_study.png").stat().st_size > 10000
+
+
 def test_cli_rejects_an_output_path_that_is_a_file(tmp_path: Path) -> None:
     blocker = tmp_path / "file"
     blocker.write_text("x")

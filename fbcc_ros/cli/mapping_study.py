@@ -6,6 +6,11 @@ writes to --out:
   mapping_study.json   accuracy per state and overall, with the settings that produced them
   mapping_study.md     the same as Markdown tables (pasted into docs/boundary-mapping.md)
   mapping_study.png    bar chart of the accuracy per state
+
+With --estimator, instead: the paper's sector rule, boundary mapping and the contact-state
+estimator on drawn responses and along simulated insertions (fbcc_ros.core.sim.state_study),
+with confusion matrices and the estimator's calibration:
+  state_study.json, state_study.md, state_study.png
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 from fbcc_ros.cli.common import out_dir
+from fbcc_ros.cli.state_study import run_state_study, write_state_study
 from fbcc_ros.core.contact.mapping_study import classify_study
 from fbcc_ros.core.contact.segmentation import STATES
 from fbcc_ros.core.errors import command
@@ -124,12 +130,22 @@ def main(argv: list[str] | None = None) -> int:
         "--samples", type=int, default=4000, help="samples per case (default 4000)"
     )
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--estimator", action="store_true",
+                        help="the sector rule, boundary mapping and the contact-state estimator "
+                             "on drawn responses (--samples per state) and along insertions")
+    parser.add_argument("--trials", type=int, default=24,
+                        help="with --estimator: insertions per fit and stiffness (default 24)")
     args = parser.parse_args(argv)
     if args.samples < 100:
         parser.error(f"--samples {args.samples}: expected at least 100")
     if args.seed < 0:
         parser.error(f"--seed {args.seed}: expected an integer >= 0")
+    if args.trials < 1:
+        parser.error(f"--trials {args.trials}: expected an integer >= 1")
     out = out_dir(parser, args.out)
+    if args.estimator:
+        write_state_study(run_state_study(args.samples, args.trials, args.seed), out)
+        return 0
     results = run_study(args.samples, args.seed)
     (out / "mapping_study.json").write_text(json.dumps(results, indent=2))
     md = to_markdown(results)

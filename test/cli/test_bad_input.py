@@ -45,6 +45,9 @@ CASES: dict[str, tuple[Callable[..., int], Callable[[dict[str, str]], list[str]]
         "--seed"),
     "mapping study, a negative seed": (
         mapping_study.main, lambda f: ["--seed", "-3", "--out", f["a_file"] + "_m"], "--seed"),
+    "state study, no insertions": (
+        mapping_study.main,
+        lambda f: ["--estimator", "--trials", "0", "--out", f["a_file"] + "_e"], "--trials"),
     "report, --out on an existing file": (
         report.main, lambda f: [BAG, "--out", f["a_file"]], "--out"),
     "sim, an --out that cannot be made": (

@@ -1,0 +1,112 @@
+"""The contact-state study of ``fbcc-mapping-study --estimator``: runs
+:mod:`fbcc_ros.core.sim.state_study` for both fits (drawn responses, both ways of drawing
+magnitudes; insertions at three stiffnesses each) and writes its JSON, Markdown and figure."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from fbcc_ros.cli.montecarlo import ProgressBar
+from fbcc_ros.core.contact.segmentation import STATES
+from fbcc_ros.core.control.contact_state import ContactStateEstimator
+from fbcc_ros.core.control.contact_uncertainty import MAGNITUDES
+from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim.state_study import drawn_study, trajectory_study
+
+#: The insertions' stiffnesses [Pa] per fit: the calibrated ABS, and stiffer ones the robust law
+#: assembles (interference up to where the push-in stays within the force limit).
+STIFFNESS = {"clearance": (1.84e8, 1e9, 1e10), "interference": (1.84e8, 5e8, 1e9)}
+
+
+def run_state_study(samples: int, trials: int, seed: int) -> dict[str, Any]:
+    """The study's results, keyed ``"<fit> | <case>"`` (module doc)."""
+    results: dict[str, Any] = {"settings": {
+        "drawn_per_state": samples, "insertions": trials, "seed": seed,
+        "scenarios": "config/scenarios/robust_<fit>.yaml (the robust law)",
+        "uncertainty": "radii ±3 µm, μ ×U(0.5, 1.5), k ×2^U(-1, 1), offsets ±0.1 mm, tilts ±2°, "
+                       "the F/T sensor's noise (contact_state.Uncertainty)"}}  # fmt: skip
+    runs = sum(len(k) for k in STIFFNESS.values())
+    bar = ProgressBar("contact-state study: insertions")
+    done = 0
+    for fit, stiffnesses in STIFFNESS.items():
+        sc = scenario_io.load(scenario_io.find(f"config/scenarios/robust_{fit}.yaml"))
+        estimator = ContactStateEstimator(sc.geometry)
+        for magnitudes in MAGNITUDES:
+            tallies = drawn_study(estimator, samples, seed, magnitudes)
+            results[f"{fit} | drawn, {magnitudes} magnitudes"] = {
+                name: t.as_dict() for name, t in tallies.items()}
+        for k in stiffnesses:
+            tallies, success = trajectory_study(sc, estimator, k, trials, seed)
+            results[f"{fit} | insertions, k {k / 1e9:g} GPa"] = {
+                "insertions assembled": success, **{n: t.as_dict() for n, t in tallies.items()}}
+            done += 1
+            bar(done, runs)
+    return results
+
+
+def to_markdown(results: dict[str, Any]) -> str:
+    lines = ["| fit | responses | method | right | samples | per state (right) |",
+             "|---|---|---|---|---|---|"]  # fmt: skip
+    for key, val in results.items():
+        if key == "settings":
+            continue
+        fit, case = (p.strip() for p in key.split("|"))
+        for method, r in val.items():
+            if not isinstance(r, dict):
+                continue
+            states = ", ".join(f"{s} {d['accuracy']:.2f}" for s, d in r["per_state"].items())
+            lines.append(f"| {fit} | {case} | {method} | {r['accuracy']:.3f} | {r['samples']} "
+                         f"| {states} |")  # fmt: skip
+    lines += ["", "Calibration of the estimator (stated probability: share right, samples):", ""]
+    for key, val in results.items():
+        for method, r in val.items():
+            if isinstance(r, dict) and r["calibration"]:
+                cal = "; ".join(f"{c['stated'][0]:.2f}–{c['stated'][1]:.2f}: {c['right']:.2f} "
+                                f"({c['samples']})" for c in r["calibration"])  # fmt: skip
+                lines.append(f"- {key}, {method}: {cal}")
+    return "\n".join(lines) + "\n"
+
+
+def draw(results: dict[str, Any], path: Path) -> None:
+    """Confusion matrices (rows: the true state, each normalised) of each method for the
+    drawn responses (log magnitudes) and the insertions at the middle stiffness."""
+    cases = [(f"{fit} | drawn, log magnitudes", ("sector rule", "boundary mapping", "estimator"))
+             for fit in STIFFNESS]  # fmt: skip
+    cases += [(f"{fit} | insertions, k {STIFFNESS[fit][1] / 1e9:g} GPa",
+               ("boundary mapping", "estimator, one response", "estimator, history"))
+              for fit in STIFFNESS]  # fmt: skip
+    fig, axes = plt.subplots(len(cases), 3, figsize=(13, 4.2 * len(cases)), squeeze=False)
+    for row, (key, methods) in enumerate(cases):
+        for col, method in enumerate(methods):
+            ax = axes[row][col]
+            c = np.asarray(results[key][method]["confusion"], dtype=float)
+            share = c / np.maximum(c.sum(axis=1, keepdims=True), 1)
+            ax.imshow(share, vmin=0, vmax=1, cmap="Blues")
+            ax.set_xticks(range(len(STATES)), STATES, fontsize=7, rotation=90)
+            ax.set_yticks(range(len(STATES)), STATES, fontsize=7)
+            ax.set_xlabel("named")
+            ax.set_ylabel("true")
+            ax.set_title(f"{key}\n{method}: {results[key][method]['accuracy']:.2f} right",
+                         fontsize=8)  # fmt: skip
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def write_state_study(results: dict[str, Any], out: Path) -> None:
+    (out / "state_study.json").write_text(json.dumps(results, indent=2))
+    md = to_markdown(results)
+    (out / "state_study.md").write_text(md)
+    draw(results, out / "state_study.png")
+    print(md)
+    print(f"wrote {out / 'state_study.json'}, {out / 'state_study.md'}, "
+          f"{out / 'state_study.png'}", file=sys.stdout)  # fmt: skip

@@ -1,0 +1,166 @@
+"""How often the contact state is named right (``fbcc-mapping-study --estimator``): the
+paper's sector rule, our boundary mapping and the contact-state estimator
+(:mod:`fbcc_ros.core.control.contact_state`), against the state of the true features
+(:func:`~fbcc_ros.core.contact.segmentation.feature_state` on the true part).
+
+* **Drawn responses**: per state of XOZ, features drawn inside it on parts drawn from the
+  estimator's :class:`~fbcc_ros.core.control.contact_state.Uncertainty` (with their own seed,
+  and either way of drawing magnitudes), responses with the sensor's noise; each classified
+  from that one response.
+* **Along insertions**: the simulator's closed loop (the scenario's law, the robust one by
+  default) on parts drawn alike at a given stiffness, deviations uniform within the ranges;
+  every in-hole sample of both planes, classified from that response alone, and by the
+  estimator's filter from every response so far.
+
+The sector rule is Fig. 6 read literally: the side of the vertical axis and of the tilted
+line, a boundary state only on its line (``response_state`` with zero bands, which names none
+of them in practice). Boundary mapping is ``response_state`` with its bands.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.contact.model import ContactBatch, PegHole
+from fbcc_ros.core.contact.segmentation import STATES, feature_state, response_state
+from fbcc_ros.core.control.contact_state import ContactStateEstimator, StateFilter, most_probable
+from fbcc_ros.core.control.contact_uncertainty import draw_in_state
+from fbcc_ros.core.sim.scenario import Scenario
+from fbcc_ros.core.sim.simulation import simulate
+
+#: The bins of the stated probability in which the calibration is counted.
+CALIBRATION_EDGES = (0.0, 0.3, 0.5, 0.7, 0.9, 0.99, 1.0 + 1e-9)
+_INDEX = {s: i for i, s in enumerate(STATES)}
+#: A part is drawn only if its quasi-static push-in is within this share of the force limit
+#: (as ``fbcc-montecarlo`` draws them).
+PUSH_IN_SHARE = 2.0 / 3.0
+
+
+@dataclasses.dataclass
+class Tally:
+    """A confusion matrix over :data:`STATES` (``confusion[truth, named]``) and, for a method
+    that states a probability, how often it was right per bin of it (CALIBRATION_EDGES)."""
+
+    confusion: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros((len(STATES), len(STATES)), dtype=np.int64))
+    stated: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros(len(CALIBRATION_EDGES) - 1, dtype=np.int64))
+    right: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros(len(CALIBRATION_EDGES) - 1, dtype=np.int64))
+
+    def add(self, truth: np.ndarray, named: np.ndarray, probability: FloatArray | None = None
+            ) -> None:  # fmt: skip
+        t = np.array([_INDEX[s] for s in truth.ravel()], dtype=np.int64)
+        n = np.array([_INDEX[s] for s in named.ravel()], dtype=np.int64)
+        np.add.at(self.confusion, (t, n), 1)
+        if probability is not None:
+            b = np.searchsorted(CALIBRATION_EDGES, probability.ravel(), side="right") - 1
+            np.add.at(self.stated, b, 1)
+            np.add.at(self.right, b, (t == n).astype(np.int64))
+
+    @property
+    def accuracy(self) -> float:
+        total = self.confusion.sum()
+        return float(np.trace(self.confusion) / total) if total else math.nan
+
+    def per_state(self) -> dict[str, tuple[float, int]]:
+        """Per true state: the share named right and the samples."""
+        rows = self.confusion.sum(axis=1)
+        return {s: (float(self.confusion[i, i] / rows[i]), int(rows[i]))
+                for i, s in enumerate(STATES) if rows[i]}  # fmt: skip
+
+    def as_dict(self) -> dict[str, object]:
+        return {"accuracy": self.accuracy, "samples": int(self.confusion.sum()),
+                "per_state": {s: {"accuracy": a, "samples": n}
+                              for s, (a, n) in self.per_state().items()},
+                "confusion": self.confusion.tolist(),
+                "calibration": [{"stated": [lo, min(hi, 1.0)], "samples": int(n),
+                                 "right": float(r / n) if n else None}
+                                for lo, hi, n, r in zip(CALIBRATION_EDGES[:-1],
+                                                        CALIBRATION_EDGES[1:], self.stated,
+                                                        self.right, strict=True)
+                                if n]}  # fmt: skip
+
+
+def sector_rule(response: FloatArray, depth: FloatArray, nominal: PegHole) -> np.ndarray:
+    """Fig. 6 read literally (module doc): states (N, 2)."""
+    return np.column_stack(response_state(response, depth, nominal, offset_band=0.0,
+                                          tilt_band=0.0))  # fmt: skip
+
+
+def drawn_study(estimator: ContactStateEstimator, per_state: int, seed: int,
+                magnitudes: str = "log", parts_per_state: int = 20,
+                ) -> dict[str, Tally]:  # fmt: skip
+    """Each method on ``per_state`` drawn responses per state of XOZ (module doc)."""
+    nominal = estimator.nominal
+    unc = dataclasses.replace(estimator.uncertainty, magnitudes=magnitudes)
+    rng = np.random.default_rng(seed)
+    feats, parts, truth = [], [], []
+    for state in STATES:
+        for _ in range(parts_per_state):
+            part = unc.part(nominal, rng)
+            f = draw_in_state(state, max(1, per_state // parts_per_state), part, unc, rng)
+            feats.append(f)
+            parts += [part] * len(f)
+            truth += [state] * len(f)
+    f = np.concatenate(feats)
+    w = unc.noisy(ContactBatch.of(parts).response(f), rng)
+    t = np.asarray(truth, dtype=object)
+    tallies = {name: Tally() for name in ("sector rule", "boundary mapping", "estimator")}
+    tallies["sector rule"].add(t, sector_rule(w, f[:, 2], nominal)[:, 0])
+    tallies["boundary mapping"].add(t, np.asarray(response_state(w, f[:, 2], nominal)[0]))
+    named, p = most_probable(estimator.probabilities(w, f[:, 2])[:, 0])
+    tallies["estimator"].add(t, named, p)
+    return tallies
+
+
+def trajectory_study(sc: Scenario, estimator: ContactStateEstimator, stiffness: float,
+                     trials: int, seed: int, law: str = "fbcc", stride: int = 5,
+                     progress: Callable[[int, int], None] | None = None,
+                     filter_options: dict[str, float] | None = None,
+                     ) -> tuple[dict[str, Tally], float]:  # fmt: skip
+    """Each method along ``trials`` simulated insertions of parts of ``stiffness`` [Pa]
+    (module doc); every ``stride``-th in-hole sample is counted (the filter sees them all).
+    Returns the tallies and the share of insertions that succeeded."""
+    unc = estimator.uncertainty
+    rng = np.random.default_rng(seed)
+    nominal = sc.geometry.replace(stiffness=stiffness)
+    parts: list[PegHole] = []
+    while len(parts) < trials:  # as fbcc-montecarlo: a part no controller can push in is not
+        part = unc.part(nominal, rng)  # drawn (its push-in over 2/3 of the force limit)
+        if part.push_in_force() <= PUSH_IN_SHARE * sc.params.F_ext_limit:
+            parts.append(part)
+    lateral = rng.uniform(-1.0, 1.0, (trials, 4)) * np.array(
+        [unc.max_offset, unc.max_offset, unc.max_tilt, unc.max_tilt])
+    dev = np.column_stack([lateral[:, :2], np.zeros(trials), lateral[:, 2:]])
+    outcome, traj = simulate(sc, law, initial=dev, geometries=parts, seed=seed)
+    assert traj is not None  # record=True
+    dt = float(traj.t[1] - traj.t[0])
+    history = StateFilter(estimator, trials, **(filter_options or {}))
+    tallies = {name: Tally() for name in ("boundary mapping", "estimator, one response",
+                                          "estimator, history")}  # fmt: skip
+    steps = len(traj.t)
+    for k in range(steps):
+        x, w = traj.features[k], traj.measured[k]
+        # the true depth, 0 above the hole (the robot's own differs by under 4 µm here: the
+        # deviation's offset times the sine of its tilt)
+        depth = np.maximum(x[:, 2], 0.0)
+        p_history = history.step(w, depth, dt)
+        inside = np.flatnonzero(x[:, 2] > 0)
+        if k % stride or not len(inside):
+            continue
+        truth = np.array([feature_state(x[i], parts[i]) for i in inside], dtype=object)
+        ws, ls = w[inside], depth[inside]
+        tallies["boundary mapping"].add(truth, np.column_stack(response_state(ws, ls,
+                                                                              sc.geometry)))
+        tallies["estimator, one response"].add(truth, *most_probable(
+            estimator.probabilities(ws, ls)))
+        tallies["estimator, history"].add(truth, *most_probable(p_history[inside]))
+        if progress is not None:
+            progress(k, steps)
+    return tallies, float(outcome.success.mean())
