@@ -133,7 +133,7 @@ def test_state_study_writes_its_tables_and_confusion_matrices(tmp_path: Path) ->
     from fbcc_ros.cli import mapping_study
 
     assert mapping_study.main(["--estimator", "--out", str(tmp_path), "--samples", "100",
-                               "--trials", "2"]) == 0  # fmt: skip
+                               "--trials", "1"]) == 0  # fmt: skip
     results = json.loads((tmp_path / "state_study.json").read_text())
     cases = [k for k in results if k != "settings"]
     assert len(cases) == 10  # per fit: two ways of drawing, three stiffnesses

@@ -133,8 +133,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--estimator", action="store_true",
                         help="the sector rule, boundary mapping and the contact-state estimator "
                              "on drawn responses (--samples per state) and along insertions")
-    parser.add_argument("--trials", type=int, default=24,
-                        help="with --estimator: insertions per fit and stiffness (default 24)")
+    parser.add_argument("--trials", type=int, default=8,
+                        help="with --estimator: insertions per fit and stiffness (default 8; "
+                             "about 4 s each)")
     args = parser.parse_args(argv)
     if args.samples < 100:
         parser.error(f"--samples {args.samples}: expected at least 100")

@@ -74,8 +74,9 @@ class ProgressBar:
     """Progress on stderr: a one-line bar redrawn in a terminal; in a log (not a terminal), one
     line at every tenth of the work, so a long study in CI or under nohup still shows it."""
 
-    def __init__(self, label: str) -> None:
+    def __init__(self, label: str, unit: str = "batches") -> None:
         self.label = label
+        self.unit = unit
         self.start = time.perf_counter()
         self.tty = sys.stderr.isatty()
         self._tenths = 0
@@ -91,7 +92,7 @@ class ProgressBar:
         eta = elapsed / done * (total - done) if done else math.nan
         bar = "#" * filled + "-" * (width - filled)
         start, end = ("\r", "\n" if done == total else "") if self.tty else ("", "\n")
-        print(f"{start}{self.label} [{bar}] {done}/{total} batches, {elapsed:5.1f} s, "
+        print(f"{start}{self.label} [{bar}] {done}/{total} {self.unit}, {elapsed:5.1f} s, "
               f"eta {eta:4.1f} s", end=end, file=sys.stderr, flush=True)  # fmt: skip
 
 

@@ -34,8 +34,9 @@ def run_state_study(samples: int, trials: int, seed: int) -> dict[str, Any]:
         "scenarios": "config/scenarios/robust_<fit>.yaml (the robust law)",
         "uncertainty": "radii ±3 µm, μ ×U(0.5, 1.5), k ×2^U(-1, 1), offsets ±0.1 mm, tilts ±2°, "
                        "the F/T sensor's noise (contact_state.Uncertainty)"}}  # fmt: skip
-    runs = sum(len(k) for k in STIFFNESS.values())
-    bar = ProgressBar("contact-state study: insertions")
+    runs = sum(len(k) for k in STIFFNESS.values()) * trials
+    bar = ProgressBar("contact-state study (a deviation filter per insertion)",
+                      "insertions")
     done = 0
     for fit, stiffnesses in STIFFNESS.items():
         sc = scenario_io.load(scenario_io.find(f"config/scenarios/robust_{fit}.yaml"))
@@ -45,11 +46,14 @@ def run_state_study(samples: int, trials: int, seed: int) -> dict[str, Any]:
             results[f"{fit} | drawn, {magnitudes} magnitudes"] = {
                 name: t.as_dict() for name, t in tallies.items()}
         for k in stiffnesses:
-            tallies, success = trajectory_study(sc, estimator, k, trials, seed)
+            def progress(i: int, _n: int, before: int = done) -> None:
+                bar(before + i, runs)
+
+            tallies, success = trajectory_study(sc, estimator, k, trials, seed,
+                                                progress=progress)  # fmt: skip
             results[f"{fit} | insertions, k {k / 1e9:g} GPa"] = {
                 "insertions assembled": success, **{n: t.as_dict() for n, t in tallies.items()}}
-            done += 1
-            bar(done, runs)
+            done += trials
     return results
 
 

@@ -35,17 +35,12 @@ Both planes are classified with the one table: in (u, σ) and (offset sign, tilt
 rotation about z carries XOZ onto YOZ unchanged (``docs/boundary-mapping.md``), so the table is
 drawn in XOZ, the YOZ features random.
 
-**Along an insertion** :class:`StateFilter` runs a hidden Markov filter per plane over the
-nine states: a state lasts ``switch_time`` on average, and each response's likelihood is
-tempered to ``dt / evidence_time`` of one (successive responses share the part's errors, which
-are not independent from sample to sample). It uses the responses' history, not yet the motion
-commanded since nor the identified μ and k (the table is binned by μ for that:
-``friction_bins``).
+Along an insertion the states are near their boundaries, where one response does not tell
+them apart: :mod:`fbcc_ros.core.control.deviation_filter` estimates them from the history.
 
 What it achieves, measured (``fbcc-mapping-study --estimator``, ``docs/boundary-mapping.md``):
 better than the sector rule and boundary mapping on drawn responses; along simulated
-insertions, no better than boundary mapping from one response, and short of the 90 % aimed at
-with the history.
+insertions, about as well as boundary mapping.
 """
 
 from __future__ import annotations
@@ -82,13 +77,6 @@ GRID = (49, 69)
 #: A density floor under every state, per unit of the grid's area, so that no response has
 #: likelihood 0 under a state (a response off every table: a fault, a model error).
 DENSITY_FLOOR = 1e-6
-#: Defaults of the filter along an insertion (:class:`StateFilter`): the mean time a state lasts
-#: [s], and the time one response's worth of evidence takes [s]. A steady contact is known as
-#: well as SWITCH_TIME / EVIDENCE_TIME independent responses would tell it (2): more made the
-#: filter overconfident along simulated insertions (docs/boundary-mapping.md), where the
-#: responses share the part's errors.
-SWITCH_TIME = 0.1
-EVIDENCE_TIME = 0.05
 
 def indicators(response: FloatArray, depth: FloatArray, nominal: PegHole,
                fz_min: float = FZ_MIN) -> tuple[FloatArray, np.ndarray]:  # fmt: skip
@@ -198,42 +186,6 @@ def most_probable(p: FloatArray) -> tuple[np.ndarray, FloatArray]:
     return names, np.take_along_axis(p, best[..., None], -1)[..., 0]
 
 
-class StateFilter:
-    """The estimate along an insertion (module doc): per plane a hidden Markov filter over the
-    nine states, each period's likelihood that of one response (μ marginalised over its bins,
-    as :meth:`ContactStateEstimator.probabilities` does).
-
-    Args:
-        model: The measurement model.
-        trials: Insertions filtered side by side.
-        switch_time: The mean time a state lasts [s]: each period a state is left with
-            probability ``1 - exp(-dt / switch_time)``, to the prior.
-        evidence_time: One response counts as ``dt / evidence_time`` of an independent one
-            (at most one): successive responses share the part's unmodelled errors.
-    """
-
-    def __init__(self, model: ContactStateEstimator, trials: int = 1, *,
-                 switch_time: float = SWITCH_TIME,
-                 evidence_time: float = EVIDENCE_TIME) -> None:  # fmt: skip
-        for name, value in (("switch_time", switch_time), ("evidence_time", evidence_time)):
-            if not (value > 0 and math.isfinite(value)):
-                raise ConfigError(name, value, "a finite time > 0 [s]")
-        self.model = model
-        self.switch_time = switch_time
-        self.evidence_time = evidence_time
-        self._alpha = np.broadcast_to(model.prior, (trials, 2, len(STATES))).copy()
-
-    def step(self, response: ArrayLike, depth: ArrayLike, dt: float) -> FloatArray:
-        """One period: P(state | the responses so far) per plane, shape (trials, 2, 9)."""
-        like = self.model.likelihood(response, depth).mean(axis=2)
-        if len(like) != len(self._alpha):
-            raise InputError("response", f"{len(like)} rows", f"{len(self._alpha)}, one a trial")
-        leave = 1.0 - math.exp(-dt / self.switch_time)
-        beta = min(1.0, dt / self.evidence_time)
-        _filter_step(like, leave, beta, self.model.prior, self._alpha)
-        return self._alpha.copy()
-
-
 @numba.njit(cache=True)
 def _kde_on_grid(pts: FloatArray, h: FloatArray, scale: float, out: FloatArray) -> None:
     """``scale`` times the Gaussian kernel density of ``pts`` at the grid's nodes."""
@@ -273,19 +225,3 @@ def _lookup(z: FloatArray, contact: np.ndarray, b: np.ndarray, density: FloatArr
                     d = density[k, m, s]
                     out[r, plane, m, s] = ((1 - fi) * ((1 - fj) * d[i, j] + fj * d[i, j + 1])
                                            + fi * ((1 - fj) * d[i + 1, j] + fj * d[i + 1, j + 1]))
-
-
-@numba.njit(cache=True)
-def _filter_step(like: FloatArray, leave: float, beta: float, prior: FloatArray,
-                 alpha: FloatArray) -> None:  # fmt: skip
-    """α ← normalise(p(y|s)^β · ((1 - leave) α + leave π)) per trial and plane."""
-    for t in range(like.shape[0]):
-        for plane in range(2):
-            c = 0.0
-            for s in range(like.shape[2]):
-                a = ((1 - leave) * alpha[t, plane, s] + leave * prior[s]) \
-                    * like[t, plane, s] ** beta
-                alpha[t, plane, s] = a
-                c += a
-            for s in range(like.shape[2]):
-                alpha[t, plane, s] = alpha[t, plane, s] / c if c > 0 else prior[s]

@@ -83,13 +83,15 @@ _CHUNK = 256
 @dataclasses.dataclass
 class Trajectory:
     """Recorded signals of a run: time (T,), and (T, N, 5) arrays of true features, true
-    responses, measured responses and commands."""
+    responses, measured responses, commands, and the robot's pose as the controller measures
+    it (features of the believed hole)."""
 
     t: FloatArray
     features: FloatArray
     response: FloatArray
     measured: FloatArray
     command: FloatArray
+    pose: FloatArray
 
 
 @dataclasses.dataclass
@@ -212,7 +214,7 @@ def simulate(
         law_name: ``fbcc``, ``admittance`` or ``none``.
         initial: Deviations of the hole, (N, 5); default the scenario's, N = 1.
         geometries: True geometry per trial (N of them); default the nominal one.
-        record: Keep the full signals (memory T × N × 20 floats).
+        record: Keep the full signals (memory T × N × 25 floats).
         seed: Seed of the sensor noise; default the scenario's.
         limits: The supervisor's step limits; default the controller's.
     """
@@ -238,7 +240,7 @@ def simulate(
     metrics = _Metrics(sc, dev)
     unconverged = np.zeros(n)  # steps whose holder equilibrium the solver did not converge
     chunks: list[tuple[np.ndarray, ...]] = []
-    buf_x, buf_w, buf_m, buf_c = (np.empty((_CHUNK, n, 5)) for _ in range(4))
+    buf_x, buf_w, buf_m, buf_c, buf_p = (np.empty((_CHUNK, n, 5)) for _ in range(5))
     steps = sc.steps
     for k0 in range(0, steps, _CHUNK):
         kk = min(_CHUNK, steps - k0)
@@ -255,6 +257,7 @@ def simulate(
                 w = settled.wrench
                 x = x + settled.delta
             measured = w + sc.bias + sc.noise * rng.standard_normal((n, 5))
+            buf_p[j] = pose
             command = limits.clip(command, law.step(measured, pose, dt))
             pose += alpha * (command - pose)
             buf_x[j], buf_w[j], buf_m[j], buf_c[j] = x, w, measured, command
@@ -262,11 +265,11 @@ def simulate(
         metrics.add(k0, np.asarray(t, dtype=float), buf_x[:kk], buf_w[:kk])
         if record:
             chunks.append((t, buf_x[:kk].copy(), buf_w[:kk].copy(), buf_m[:kk].copy(),
-                           buf_c[:kk].copy()))  # fmt: skip
+                           buf_c[:kk].copy(), buf_p[:kk].copy()))  # fmt: skip
     outcome = metrics.outcome(law.stopped.copy(), law.trips.copy(), unconverged)
     if not record:
         return outcome, None
-    traj = Trajectory(*(np.concatenate([c[i] for c in chunks]) for i in range(5)))
+    traj = Trajectory(*(np.concatenate([c[i] for c in chunks]) for i in range(6)))
     return outcome, traj
 
 

@@ -9,8 +9,8 @@ paper's sector rule, our boundary mapping and the contact-state estimator
   from that one response.
 * **Along insertions**: the simulator's closed loop (the scenario's law, the robust one by
   default) on parts drawn alike at a given stiffness, deviations uniform within the ranges;
-  every in-hole sample of both planes, classified from that response alone, and by the
-  estimator's filter from every response so far.
+  in-hole samples of both planes, classified from that response alone, and by the deviation
+  filter (:mod:`fbcc_ros.core.control.deviation_filter`) from the responses and poses so far.
 
 The sector rule is Fig. 6 read literally: the side of the vertical axis and of the tilted
 line, a boundary state only on its line (``response_state`` with zero bands, which names none
@@ -28,8 +28,9 @@ import numpy as np
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import ContactBatch, PegHole
 from fbcc_ros.core.contact.segmentation import STATES, feature_state, response_state
-from fbcc_ros.core.control.contact_state import ContactStateEstimator, StateFilter, most_probable
+from fbcc_ros.core.control.contact_state import ContactStateEstimator, most_probable
 from fbcc_ros.core.control.contact_uncertainty import draw_in_state
+from fbcc_ros.core.control.deviation_filter import DeviationFilter
 from fbcc_ros.core.sim.scenario import Scenario
 from fbcc_ros.core.sim.simulation import simulate
 
@@ -121,12 +122,13 @@ def drawn_study(estimator: ContactStateEstimator, per_state: int, seed: int,
 
 def trajectory_study(sc: Scenario, estimator: ContactStateEstimator, stiffness: float,
                      trials: int, seed: int, law: str = "fbcc", stride: int = 5,
+                     particles: int = 4000,
                      progress: Callable[[int, int], None] | None = None,
-                     filter_options: dict[str, float] | None = None,
                      ) -> tuple[dict[str, Tally], float]:  # fmt: skip
     """Each method along ``trials`` simulated insertions of parts of ``stiffness`` [Pa]
-    (module doc); every ``stride``-th in-hole sample is counted (the filter sees them all).
-    Returns the tallies and the share of insertions that succeeded."""
+    (module doc), at every ``stride``-th sample in the hole; the deviation filter updates at
+    every ``stride``-th sample from the first touch. Returns the tallies and the share of
+    insertions that succeeded; ``progress(done, trials)`` after each insertion."""
     unc = estimator.uncertainty
     rng = np.random.default_rng(seed)
     nominal = sc.geometry.replace(stiffness=stiffness)
@@ -140,27 +142,24 @@ def trajectory_study(sc: Scenario, estimator: ContactStateEstimator, stiffness: 
     dev = np.column_stack([lateral[:, :2], np.zeros(trials), lateral[:, 2:]])
     outcome, traj = simulate(sc, law, initial=dev, geometries=parts, seed=seed)
     assert traj is not None  # record=True
-    dt = float(traj.t[1] - traj.t[0])
-    history = StateFilter(estimator, trials, **(filter_options or {}))
     tallies = {name: Tally() for name in ("boundary mapping", "estimator, one response",
                                           "estimator, history")}  # fmt: skip
-    steps = len(traj.t)
-    for k in range(steps):
-        x, w = traj.features[k], traj.measured[k]
-        # the true depth, 0 above the hole (the robot's own differs by under 4 µm here: the
-        # deviation's offset times the sine of its tilt)
-        depth = np.maximum(x[:, 2], 0.0)
-        p_history = history.step(w, depth, dt)
-        inside = np.flatnonzero(x[:, 2] > 0)
-        if k % stride or not len(inside):
-            continue
-        truth = np.array([feature_state(x[i], parts[i]) for i in inside], dtype=object)
-        ws, ls = w[inside], depth[inside]
-        tallies["boundary mapping"].add(truth, np.column_stack(response_state(ws, ls,
+    for i in range(trials):
+        history = DeviationFilter(sc.geometry, unc, particles=particles, seed=seed + i)
+        x, w, pose = traj.features[::stride, i], traj.measured[::stride, i], traj.pose[::stride, i]
+        touched = np.flatnonzero((x[:, 2] > 0) | (pose[:, 2] > 0))
+        inside = x[:, 2] > 0
+        named = [history.update(w[k], pose[k]) for k in touched]
+        scored = touched[inside[touched]]
+        truth = np.array([feature_state(x[k], parts[i]) for k in scored], dtype=object)
+        depth = np.maximum(pose[scored, 2], 0.0)  # what the robot measures
+        ws = w[scored]
+        tallies["boundary mapping"].add(truth, np.column_stack(response_state(ws, depth,
                                                                               sc.geometry)))
         tallies["estimator, one response"].add(truth, *most_probable(
-            estimator.probabilities(ws, ls)))
-        tallies["estimator, history"].add(truth, *most_probable(p_history[inside]))
+            estimator.probabilities(ws, depth)))
+        tallies["estimator, history"].add(truth, *most_probable(
+            np.array(named)[inside[touched]]))
         if progress is not None:
-            progress(k, steps)
+            progress(i + 1, trials)
     return tallies, float(outcome.success.mean())

@@ -1,6 +1,6 @@
-"""The contact-state estimator (fbcc_ros.core.control.contact_state): states known by
-construction, drawn responses against the sector rule and boundary mapping, the stated
-probability against the share right, the history filter, and bad input."""
+"""The contact-state estimator from one response (fbcc_ros.core.control.contact_state):
+states known by construction, drawn responses against the sector rule and boundary mapping,
+the stated probability against the share right, and bad input."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from fbcc_ros.core.contact.segmentation import STATES, feature_state
-from fbcc_ros.core.control.contact_state import ContactStateEstimator, StateFilter, most_probable
+from fbcc_ros.core.control.contact_state import ContactStateEstimator, most_probable
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty, draw_in_state
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.paper import paper_pair
@@ -79,24 +79,6 @@ def test_the_stated_probability_is_the_share_right_on_drawn_responses(
         assert lo - sd <= share <= min(hi, 1.0) + sd, (lo, hi, n, share)
 
 
-def test_the_history_sharpens_a_steady_contact() -> None:
-    """A peg held in one state: the filter's probability of it grows past one response's."""
-    est = ContactStateEstimator(paper_pair("interference"), seed=3)
-    f = np.array([20e-6, -30e-6, 4e-3, math.radians(0.5), math.radians(-0.8)])
-    truth = feature_state(f, est.nominal)
-    rng = np.random.default_rng(2)
-    history = StateFilter(est)
-    single = []
-    for _ in range(300):
-        w = est.uncertainty.noisy(est.nominal.response(f)[None], rng)
-        single.append(est.probabilities(w, f[2])[0])
-        p = history.step(w, f[2], 1e-3)[0]
-    for plane in range(2):
-        s = STATES.index(truth[plane])
-        assert p[plane, s] > np.mean([q[plane, s] for q in single])
-        assert STATES[int(p[plane].argmax())] == truth[plane]
-
-
 def test_no_contact_is_p0_for_a_clearance_fit() -> None:
     est = ContactStateEstimator(paper_pair("clearance"), seed=3)
     named, p = most_probable(est.probabilities(np.zeros((1, 5)), 5e-3))
@@ -123,7 +105,3 @@ def test_bad_inputs_are_refused(estimator: ContactStateEstimator) -> None:
     with pytest.raises(InputError, match="state"):
         draw_in_state("Q1", 3, estimator.nominal, estimator.uncertainty,
                       np.random.default_rng(0))  # fmt: skip
-    with pytest.raises(InputError, match="2, one a trial"):
-        StateFilter(estimator, 2).step(np.zeros((3, 5)), 1e-3, 1e-3)
-    with pytest.raises(ConfigError, match="switch_time"):
-        StateFilter(estimator, switch_time=0.0)

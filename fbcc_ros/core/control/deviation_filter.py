@@ -1,0 +1,196 @@
+"""The contact state along an insertion from where the hole is: a particle filter over the
+hole's unknown deviation, the part's μ and its radial gap, with the contact model as the
+measurement (DESIGN §6; ``docs/boundary-mapping.md``).
+
+One response cannot tell the states near their boundaries apart (a tilted peg that the law has
+brought to Fx = 0 sits at eq. 20's shift, a D±1 by its features and a D0 by its response), but
+the responses *along* an insertion, with the poses they were measured at, pin down where the
+hole is. The hole's deviation ``x_dev = (dx, dy, ·, θx, θy)`` from where the robot believes it
+is is constant, and the true features follow from it and the measured ones exactly
+(:func:`~fbcc_ros.core.contact.features.true_rows`, the plant's own composition). So the
+filter's hidden state is constant:
+
+.. math::
+    \\theta = (d_x, d_y, \\theta_x, \\theta_y, \\mu, g),\\qquad
+    w_p \\propto w_p\\, p(y_t \\mid x_t(\\theta_p)),
+
+with g the radial gap R − r off the nominal. Particles start uniform over the stated
+:class:`~fbcc_ros.core.control.contact_uncertainty.Uncertainty` (deviations ±range, μ ×(1 ± f),
+g ± 2·radius). Each update, every particle's true features give its predicted response (the
+contact model of eq. 5-13 with its μ and gap); the likelihood compares the indicators of both
+planes (u = F/Fz and σ, :func:`~fbcc_ros.core.contact.segmentation.normalised_coordinates`, in
+which k cancels) with a Cauchy kernel of the sensor's noise over Fz plus a model floor, and
+"no contact" with its Fz. For the first ``anneal`` updates the log-likelihood is scaled up from
+0: on the hole's top face a tilt and an offset read alike, and an early full weighting locked
+one insertion in four onto the tilt of the wrong sign. When the effective sample size falls
+under half, the particles are resampled with Liu and West's shrunk kernel (``a`` = 0.98), which
+keeps the cloud's mean and spread.
+
+The state per plane is the particles' weighted vote of
+:func:`~fbcc_ros.core.contact.segmentation.feature_state` at their true features, each particle
+with its own gap (the clearance's no-contact region).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.contact.features import true_rows
+from fbcc_ros.core.contact.model import ContactBatch, PegHole, as_rows
+from fbcc_ros.core.contact.segmentation import (
+    FZ_MIN,
+    OFFSET_TOL,
+    STATES,
+    TILT_TOL,
+    normalised_coordinates,
+)
+from fbcc_ros.core.control.contact_uncertainty import Uncertainty
+from fbcc_ros.core.errors import ConfigError
+
+#: Model floors of the likelihood's scale, in u and σ: what the contact model does not know
+#: (the part's k, the other radius, the plant's details) beyond the sensor's noise.
+U_FLOOR = 0.05
+SIGMA_FLOOR = 0.02
+#: Log-likelihood of a particle that predicts contact where there is none, or none where there is.
+CONTACT_MISMATCH = -30.0
+#: Liu and West's shrinkage: the kernel keeps the cloud's mean and spread.
+SHRINK = 0.98
+#: Floors of the resampling kernel's covariance (dx, dy, θx, θy, μ, g), so a collapsed cloud
+#: still moves: 0.1 µm, 0.01 mrad, 0.001 in μ, 0.03 µm.
+JITTER_FLOOR = (1e-7, 1e-7, 1e-5, 1e-5, 1e-3, 3e-8)
+
+
+class DeviationFilter:
+    """P(state) per plane along one insertion (module doc).
+
+    Args:
+        nominal: The nominal geometry.
+        uncertainty: The deviations' ranges, μ's and the radii's spreads, the sensor's noise.
+        particles: How many.
+        anneal: Updates over which the likelihood's weight rises from 0 to 1.
+        seed: The particles' seed.
+    """
+
+    def __init__(self, nominal: PegHole, uncertainty: Uncertainty | None = None, *,
+                 particles: int = 4000, anneal: int = 200, seed: int = 0) -> None:  # fmt: skip
+        if particles < 100:
+            raise ConfigError("particles", particles, "at least 100")
+        if anneal < 0:
+            raise ConfigError("anneal", anneal, "an update count >= 0")
+        self.nominal = nominal
+        self.uncertainty = unc = uncertainty or Uncertainty()
+        self.anneal = anneal
+        self._rng = np.random.default_rng(seed)
+        n = particles
+        rng = self._rng
+        self._theta = np.column_stack([
+            rng.uniform(-unc.max_offset, unc.max_offset, (n, 2)),
+            rng.uniform(-unc.max_tilt, unc.max_tilt, (n, 2)),
+            nominal.friction * rng.uniform(1 - unc.friction, 1 + unc.friction, n),
+            rng.uniform(-2 * unc.radius, 2 * unc.radius, n),
+        ])  # fmt: skip
+        self._logw = np.zeros(n)
+        self.updates = 0
+        self._table = np.tile(np.array([[nominal.hole_radius], [nominal.peg_radius],
+                                        [nominal.friction], [nominal.stiffness],
+                                        [nominal.hole_depth], [nominal.base_thickness],
+                                        [nominal.peg_length]]), (1, n))  # fmt: skip
+        self._peg_top = nominal.acting_point == "peg_top"
+        self._noise = np.asarray(unc.noise, dtype=float)
+
+    @property
+    def weights(self) -> FloatArray:
+        w = np.exp(self._logw - self._logw.max())
+        return w / w.sum()  # type: ignore[no-any-return]
+
+    def deviation(self) -> tuple[FloatArray, FloatArray]:
+        """The weighted mean and standard deviation of (dx, dy, θx, θy, μ, g)."""
+        w = self.weights
+        mean = w @ self._theta
+        return mean, np.sqrt(w @ (self._theta - mean) ** 2)
+
+    def true_features(self, features: ArrayLike) -> FloatArray:
+        """Each particle's true features at the measured ones (5,) (its depth kept)."""
+        f, _ = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
+        n = len(self._theta)
+        dev = np.zeros((n, 5))
+        dev[:, [0, 1, 3, 4]] = self._theta[:, :4]
+        out = np.empty((n, 5))
+        true_rows(np.ascontiguousarray(np.broadcast_to(f[0], (n, 5))), dev,
+                  self.nominal.peg_radius, np.full(n, self.nominal.peg_radius), out)  # fmt: skip
+        return out
+
+    def update(self, response: ArrayLike, features: ArrayLike) -> FloatArray:
+        """Weigh the particles by one compensated response (5,) in {H} [N, N·m] measured at the
+        robot's features (5,); returns P(state) per plane, shape (2, 9)."""
+        w, _ = as_rows(response, "response", "(Fx, Fy, Fz, Mx, My) in N, N·m")
+        depth = max(float(np.asarray(features, dtype=float)[2]), 0.0)
+        x = self.true_features(features)
+        touching = x.copy()
+        np.maximum(touching[:, 2], 0.0, out=touching[:, 2])
+        self._table[0] = self.nominal.hole_radius + self._theta[:, 5]
+        self._table[2] = self._theta[:, 4]
+        predicted = ContactBatch(self._table, self._peg_top, self.nominal.n_angles).response(
+            touching)
+        self.updates += 1
+        scale = min(1.0, self.updates / self.anneal) if self.anneal else 1.0
+        self._logw += scale * self._log_likelihood(w[0], depth, predicted, touching[:, 2])
+        self._logw -= self._logw.max()
+        probabilities = self.states(x)
+        weights = self.weights
+        if 1.0 / np.sum(weights**2) < len(weights) / 2:
+            self._resample(weights)
+        return probabilities
+
+    def _log_likelihood(self, w: FloatArray, measured_depth: float, predicted: FloatArray,
+                        depth: FloatArray) -> FloatArray:  # fmt: skip
+        """Cauchy in the indicators of both planes; a contact mismatch is CONTACT_MISMATCH."""
+        if not w[2] > FZ_MIN:  # no contact: a particle that presses is unlikely
+            return np.where(predicted[:, 2] > 3 * self._noise[2], CONTACT_MISMATCH, 0.0)
+        fz = w[2]
+        measured = np.array(normalised_coordinates(w[None], np.array([measured_depth]),
+                                                   self.nominal)).ravel()  # fmt: skip
+        with np.errstate(all="ignore"):
+            p = np.column_stack(normalised_coordinates(predicted, depth, self.nominal))
+        s_u = self._noise[0] / fz + U_FLOOR
+        s_s = self._noise[3] / (self.nominal.hole_radius * fz) + SIGMA_FLOOR
+        e = (p - measured) / np.array([s_u, s_s, s_u, s_s])
+        ll = -np.sum(np.log1p(e**2), axis=1)
+        return np.where(predicted[:, 2] > FZ_MIN, ll, CONTACT_MISMATCH)  # type: ignore[no-any-return]
+
+    def states(self, x: FloatArray) -> FloatArray:
+        """The weighted vote of the particles' states at their true features x (P, 5)."""
+        weights = self.weights
+        out = np.zeros((2, len(STATES)))
+        clearance = (self.nominal.hole_radius + self._theta[:, 5]) - self.nominal.peg_radius
+        for plane, (d, t) in enumerate(((x[:, 0], x[:, 4]), (x[:, 1], x[:, 3]))):
+            ds = np.where(d > OFFSET_TOL, 1, np.where(d < -OFFSET_TOL, -1, 0))
+            ts = np.where(t > TILT_TOL, 1, np.where(t < -TILT_TOL, -1, 0))
+            index = _STATE_INDEX[ts + 1, ds + 1]
+            # eq. 15: no contact in the plane while the peg fits within the gap
+            reach = np.abs(d) + x[:, 2] * np.abs(np.sin(t)) / 2 \
+                + self.nominal.peg_radius * (np.cos(t) - 1.0)
+            index = np.where((clearance > 0) & (reach <= clearance), 0, index)
+            np.add.at(out[plane], index, weights)
+        return out
+
+    def _resample(self, weights: FloatArray) -> None:
+        n = len(weights)
+        index = self._rng.choice(n, n, p=weights)
+        mean = weights @ self._theta
+        cov = np.cov(self._theta.T, aweights=weights) + np.diag(np.square(JITTER_FLOOR))
+        kernel = self._rng.multivariate_normal(np.zeros(6), (1 - SHRINK**2) * cov, n)
+        self._theta = SHRINK * self._theta[index] + (1 - SHRINK) * mean + kernel
+        self._theta[:, 4] = np.clip(self._theta[:, 4], 0.01, None)  # μ stays positive
+        self._logw = np.zeros(n)
+
+
+def _state_table() -> np.ndarray:
+    """Index into STATES by [tilt sign + 1, offset sign + 1] (segmentation's labels)."""
+    letter = {1: "D", 0: "P", -1: "D^"}
+    return np.array([[STATES.index(f"{letter[t]}{d}") for d in (-1, 0, 1)] for t in (-1, 0, 1)])
+
+
+_STATE_INDEX = _state_table()

@@ -1,0 +1,76 @@
+"""The contact state along an insertion from where the hole is
+(fbcc_ros.core.control.deviation_filter): on simulated insertions of drawn parts, the hole's
+deviation is found, the states are named right at least 90 % of the time (interference), and
+what it states as near-certain is right; bad settings are refused."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fbcc_ros.core.contact.segmentation import STATES, feature_state
+from fbcc_ros.core.control.contact_state import most_probable
+from fbcc_ros.core.control.contact_uncertainty import Uncertainty
+from fbcc_ros.core.control.deviation_filter import DeviationFilter
+from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim.simulation import simulate
+
+
+@pytest.fixture(scope="module")
+def insertions() -> tuple:
+    """Three robust-law insertions of drawn interference parts at 0.5 GPa, deviations drawn
+    over the ranges."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_interference.yaml"))
+    unc = Uncertainty()
+    rng = np.random.default_rng(21)
+    parts = [unc.part(sc.geometry.replace(stiffness=5e8), rng) for _ in range(3)]
+    lateral = rng.uniform(-1, 1, (3, 4)) * [unc.max_offset, unc.max_offset, unc.max_tilt,
+                                            unc.max_tilt]  # fmt: skip
+    dev = np.column_stack([lateral[:, :2], np.zeros(3), lateral[:, 2:]])
+    _, traj = simulate(sc, "fbcc", initial=dev, geometries=parts, seed=21)
+    return sc, unc, parts, dev, traj
+
+
+def test_the_deviation_is_found_and_the_states_named(insertions: tuple) -> None:
+    sc, unc, parts, dev, traj = insertions
+    right = total = sure = sure_right = 0
+    for i in range(len(parts)):
+        f = DeviationFilter(sc.geometry, unc, seed=i)
+        for k in range(0, len(traj.t), 5):
+            x, pose = traj.features[k, i], traj.pose[k, i]
+            if x[2] <= 0 and pose[2] <= 0:
+                continue
+            named, p = most_probable(f.update(traj.measured[k, i], pose))
+            if x[2] > 0:
+                truth = feature_state(x, parts[i])
+                hits = [named[j] == truth[j] for j in range(2)]
+                right += sum(hits)
+                total += 2
+                sure += int((p > 0.99).sum())
+                sure_right += sum(h for h, q in zip(hits, p, strict=True) if q > 0.99)
+        mean, _ = f.deviation()
+        error = np.abs(mean[:4] - dev[i, [0, 1, 3, 4]])
+        assert (error[:2] < 1e-6).all() and (error[2:] < 1e-4).all(), error  # 1 µm, 0.1 mrad
+    assert right / total >= 0.9, right / total
+    assert sure_right / sure >= 0.95, (sure, sure_right)
+
+
+def test_before_any_contact_the_state_is_open() -> None:
+    """No contact yet: no particle pressing is favoured over another, and no state of a
+    contact is named with certainty."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
+    f = DeviationFilter(sc.geometry, particles=500)
+    p = f.update(np.zeros(5), np.array([0.0, 0.0, 1e-3, 0.0, 0.0]))
+    assert p.shape == (2, len(STATES)) and np.allclose(p.sum(axis=1), 1.0)
+    assert (p.max(axis=1) < 0.99).all()
+
+
+@pytest.mark.parametrize(("kwargs", "match"), [
+    ({"particles": 10}, r"particles=10.*at least 100"),
+    ({"anneal": -1}, r"anneal=-1.*>= 0"),
+])  # fmt: skip
+def test_bad_settings_are_refused(kwargs: dict, match: str) -> None:
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
+    with pytest.raises(ConfigError, match=match):
+        DeviationFilter(sc.geometry, **kwargs)
