@@ -133,16 +133,17 @@ def test_state_study_writes_its_tables_and_confusion_matrices(tmp_path: Path) ->
     from fbcc_ros.cli import mapping_study
 
     assert mapping_study.main(["--estimator", "--out", str(tmp_path), "--samples", "100",
-                               "--trials", "1"]) == 0  # fmt: skip
+                               "--trials", "1", "--placement", "peg_top"]) == 0  # fmt: skip
     results = json.loads((tmp_path / "state_study.json").read_text())
     cases = [k for k in results if k != "settings"]
     assert len(cases) == 10  # per fit: two ways of drawing, three stiffnesses
+    assert all(", F/T at the wrist |" in case for case in cases)
     for case in cases:
         methods = {m: r for m, r in results[case].items() if isinstance(r, dict)}
         assert len(methods) == 3
         for r in methods.values():
             assert sum(map(sum, r["confusion"])) == r["samples"] > 0
-    assert "| interference | insertions, k 1 GPa | estimator, history |" in (
+    assert "| interference, F/T at the wrist | insertions, k 1 GPa | estimator, history |" in (
         tmp_path / "state_study.md").read_text()
     assert (tmp_path / "state_study.png").stat().st_size > 10000
 

@@ -133,6 +133,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--estimator", action="store_true",
                         help="the sector rule, boundary mapping and the contact-state estimator "
                              "on drawn responses (--samples per state) and along insertions")
+    parser.add_argument("--placement", choices=["hole_bottom", "peg_top", "both"],
+                        default="both", help="with --estimator: the sensor placement(s) "
+                        "(under the hole, at the wrist; default both)")
     parser.add_argument("--trials", type=int, default=8,
                         help="with --estimator: insertions per fit and stiffness (default 8; "
                              "about 4 s each)")
@@ -145,7 +148,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--trials {args.trials}: expected an integer >= 1")
     out = out_dir(parser, args.out)
     if args.estimator:
-        write_state_study(run_state_study(args.samples, args.trials, args.seed), out)
+        placements = ("hole_bottom", "peg_top") if args.placement == "both" else (args.placement,)
+        write_state_study(run_state_study(args.samples, args.trials, args.seed, placements), out)
         return 0
     results = run_study(args.samples, args.seed)
     (out / "mapping_study.json").write_text(json.dumps(results, indent=2))

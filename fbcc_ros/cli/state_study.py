@@ -4,6 +4,8 @@ magnitudes; insertions at three stiffnesses each) and writes its JSON, Markdown 
 
 from __future__ import annotations
 
+import dataclasses
+import itertools
 import json
 import sys
 from pathlib import Path
@@ -25,34 +27,40 @@ from fbcc_ros.core.sim.state_study import drawn_study, trajectory_study
 #: The insertions' stiffnesses [Pa] per fit: the calibrated ABS, and stiffer ones the robust law
 #: assembles (interference up to where the push-in stays within the force limit).
 STIFFNESS = {"clearance": (1.84e8, 1e9, 1e10), "interference": (1.84e8, 5e8, 1e9)}
+#: The sensor placements (the acting point of the responses) and how the tables name them.
+PLACEMENTS = {"hole_bottom": "F/T under the hole", "peg_top": "F/T at the wrist"}
 
 
-def run_state_study(samples: int, trials: int, seed: int) -> dict[str, Any]:
-    """The study's results, keyed ``"<fit> | <case>"`` (module doc)."""
+def run_state_study(samples: int, trials: int, seed: int,
+                    placements: tuple[str, ...] = tuple(PLACEMENTS),
+                    ) -> dict[str, Any]:  # fmt: skip
+    """The study's results, keyed ``"<fit>, <placement> | <case>"`` (module doc)."""
     results: dict[str, Any] = {"settings": {
         "drawn_per_state": samples, "insertions": trials, "seed": seed,
         "scenarios": "config/scenarios/robust_<fit>.yaml (the robust law)",
         "uncertainty": "radii ±3 µm, μ ×U(0.5, 1.5), k ×2^U(-1, 1), offsets ±0.1 mm, tilts ±2°, "
-                       "the F/T sensor's noise (contact_state.Uncertainty)"}}  # fmt: skip
-    runs = sum(len(k) for k in STIFFNESS.values()) * trials
-    bar = ProgressBar("contact-state study (a deviation filter per insertion)",
-                      "insertions")
+                       "the F/T sensor's noise (contact_uncertainty.Uncertainty)"}}  # fmt: skip
+    runs = sum(len(k) for k in STIFFNESS.values()) * trials * len(placements)
+    bar = ProgressBar("contact-state study (a deviation filter per insertion)", "insertions")
     done = 0
-    for fit, stiffnesses in STIFFNESS.items():
+    for (fit, stiffnesses), placement in itertools.product(STIFFNESS.items(), placements):
         sc = scenario_io.load(scenario_io.find(f"config/scenarios/robust_{fit}.yaml"))
+        sc = dataclasses.replace(sc, geometry=sc.geometry.replace(acting_point=placement))
         estimator = ContactStateEstimator(sc.geometry)
+        case = f"{fit}, {PLACEMENTS[placement]}"
         for magnitudes in MAGNITUDES:
             tallies = drawn_study(estimator, samples, seed, magnitudes)
-            results[f"{fit} | drawn, {magnitudes} magnitudes"] = {
-                name: t.as_dict() for name, t in tallies.items()}
+            results[f"{case} | drawn, {magnitudes} magnitudes"] = {
+                method: t.as_dict() for method, t in tallies.items()}
         for k in stiffnesses:
             def progress(i: int, _n: int, before: int = done) -> None:
                 bar(before + i, runs)
 
             tallies, success = trajectory_study(sc, estimator, k, trials, seed,
                                                 progress=progress)  # fmt: skip
-            results[f"{fit} | insertions, k {k / 1e9:g} GPa"] = {
-                "insertions assembled": success, **{n: t.as_dict() for n, t in tallies.items()}}
+            results[f"{case} | insertions, k {k / 1e9:g} GPa"] = {
+                "insertions assembled": success,
+                **{method: t.as_dict() for method, t in tallies.items()}}
             done += trials
     return results
 
@@ -82,12 +90,16 @@ def to_markdown(results: dict[str, Any]) -> str:
 
 def draw(results: dict[str, Any], path: Path) -> None:
     """Confusion matrices (rows: the true state, each normalised) of each method for the
-    drawn responses (log magnitudes) and the insertions at the middle stiffness."""
-    cases = [(f"{fit} | drawn, log magnitudes", ("sector rule", "boundary mapping", "estimator"))
-             for fit in STIFFNESS]  # fmt: skip
-    cases += [(f"{fit} | insertions, k {STIFFNESS[fit][1] / 1e9:g} GPa",
+    drawn responses (log magnitudes) and the insertions at the middle stiffness, for the
+    first placement of each fit."""
+    present = [(fit, f"{fit}, {PLACEMENTS[p]}") for fit in STIFFNESS for p in PLACEMENTS
+               if f"{fit}, {PLACEMENTS[p]} | drawn, log magnitudes" in results]
+    first = [next(c for f, c in present if f == fit) for fit in STIFFNESS]
+    cases = [(f"{c} | drawn, log magnitudes", ("sector rule", "boundary mapping", "estimator"))
+             for c in first]  # fmt: skip
+    cases += [(f"{c} | insertions, k {STIFFNESS[c.split(',')[0]][1] / 1e9:g} GPa",
                ("boundary mapping", "estimator, one response", "estimator, history"))
-              for fit in STIFFNESS]  # fmt: skip
+              for c in first]  # fmt: skip
     fig, axes = plt.subplots(len(cases), 3, figsize=(13, 4.2 * len(cases)), squeeze=False)
     for row, (key, methods) in enumerate(cases):
         for col, method in enumerate(methods):
