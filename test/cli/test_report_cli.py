@@ -22,7 +22,8 @@ BAG = ROOT / "test" / "data" / "bags" / "short_interference"
 def test_the_report_of_a_recorded_session(tmp_path: Path, capsys) -> None:
     assert report.main([str(BAG), "--out", str(tmp_path)]) == 0
     assert "inserted" in capsys.readouterr().out
-    for name in ("trajectories.png", "planes.png", "states.png", "estimate.png"):
+    for name in ("trajectories.png", "planes.png", "states.png", "estimate.png",
+                 "contact_states.png"):
         assert (tmp_path / name).stat().st_size > 20_000, name
     summary = json.loads((tmp_path / "summary.json").read_text())
     bag = read_bag(BAG)
@@ -49,6 +50,13 @@ def test_the_report_of_a_recorded_session(tmp_path: Path, capsys) -> None:
     assert summary["peak_fz_n"] == pytest.approx(truth_fz, rel=0.05)
     text = (tmp_path / "summary.md").read_text()
     assert "final phase **inserted**" in text and "truncated" not in text
+    # the contact state along the session: the deviation filter (at 200 updates a second)
+    # names the mock's true state more often than boundary mapping does, in both planes
+    states = summary["contact_state_estimate"]
+    assert states["every_nth_sample"] == 5 and states["updates"] > 200
+    agree = states["agreement_with_truth"]
+    for plane in ("XOZ", "YOZ"):
+        assert agree["deviation filter"][plane] > agree["boundary mapping"][plane] + 0.1, agree
 
 
 def test_a_cut_bag_is_reported_as_truncated(tmp_path: Path, capfd) -> None:

@@ -33,6 +33,8 @@ with its own gap (the clearance's no-contact region).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -208,3 +210,18 @@ def _state_table() -> np.ndarray:
 
 
 _STATE_INDEX = _state_table()
+
+
+def along(features: FloatArray, responses: FloatArray, nominal: PegHole, every: int = 1,
+          **options: Any) -> tuple[np.ndarray, FloatArray]:  # fmt: skip
+    """The filter along one recorded insertion: measured features and compensated responses,
+    both (T, 5); updated at every ``every``-th row from the first in contact or in the hole.
+    Returns the rows it updated at and P(state) there, shape (K, 2, 9). ``options`` go to
+    :class:`DeviationFilter`."""
+    if every < 1:
+        raise ConfigError("every", every, "a row count >= 1")
+    started = np.flatnonzero((responses[:, 2] > FZ_MIN) | (features[:, 2] > 0))
+    rows = np.arange(started[0], len(features), every) if len(started) else np.zeros(0, int)
+    f = DeviationFilter(nominal, **options)
+    return rows, np.array([f.update(responses[k], features[k]) for k in rows]).reshape(-1, 2,
+                                                                                     len(STATES))
