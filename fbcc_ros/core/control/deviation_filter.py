@@ -21,8 +21,10 @@ contact model of eq. 5-13 with its μ and gap); the likelihood compares the indi
 planes (u = F/Fz and σ, :func:`~fbcc_ros.core.contact.segmentation.normalised_coordinates`, in
 which k cancels) with a Cauchy kernel of the sensor's noise over Fz plus a model floor, and
 "no contact" with its Fz. For the first ``anneal`` updates the log-likelihood is scaled up from
-0: on the hole's top face a tilt and an offset read alike, and an early full weighting locked
-one insertion in four onto the tilt of the wrong sign. When the effective sample size falls
+0: on the hole's top face a tilt and an offset read alike, and an early full weighting can
+settle the cloud on the wrong one (without it, 1 of 4 interference insertions ended 2 µm and
+2.5 mrad off; over 50 updates, 1 of 4 ended 2.7 µm and 2.4 mrad off; over 200, none of 12
+did, each within 0.03 µm and 0.01 mrad). When the effective sample size falls
 under half, the particles are resampled with Liu and West's shrunk kernel (``a`` = 0.98), which
 keeps the cloud's mean and spread; once the cloud has converged, with fewer of them.
 
@@ -114,6 +116,7 @@ class DeviationFilter:
 
     @property
     def weights(self) -> FloatArray:
+        """The particles' normalised weights."""
         w = np.exp(self._logw - self._logw.max())
         return w / w.sum()  # type: ignore[no-any-return]
 
@@ -124,7 +127,8 @@ class DeviationFilter:
         return mean, np.sqrt(w @ (self._theta - mean) ** 2)
 
     def true_features(self, features: ArrayLike) -> FloatArray:
-        """Each particle's true features at the measured ones (5,) (its depth kept)."""
+        """Each particle's true features (in the hole where it puts it) at the measured ones
+        (5,), shape (P, 5)."""
         f, _ = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
         n = len(self._theta)
         dev = np.zeros((n, 5))
