@@ -40,6 +40,10 @@ row's stiffness in Ĵ is therefore at least ``|∂u_d/∂θ| U_θ / U_d`` (the f
 under Depth): a tilt step then moves the offset row's effort ``u_d / U_d`` no faster than
 ``ω_c`` times the tilt row's own effort.
 
+**Tilt rate.** A tilt row turns the peg no faster than ``tilt_rate``: the overshoot allowed
+in one stated ``loop_delay``. As a stiff part comes free its tilt row's stiffness falls and
+its gain rises; turning faster than the response can come back, the tilt passes its zero.
+
 **Excitation.** A dither per row, at its own frequency, of ``dither_force`` / k̂ (offsets) and
 ``dither_effort`` / k̂ (tilts), capped at ``dither_max_offset`` / ``dither_max_tilt``, keeps the
 identification excited; it is on only in contact and while inserting. Its amplitude follows that

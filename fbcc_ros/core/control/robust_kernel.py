@@ -66,7 +66,8 @@ P_SETTLE = P_NOTCH_END  # the band of every row once the depth is reached
 P_DEPTH_F = P_NOTCH_END + 1  # the depth loop's low-pass (filters.second_order_coefficients)
 P_DNOISE = P_DEPTH_F + 6  # what the depth loop discounts of each row: its noise there (4)
 P_SETTLE_GAIN = P_DNOISE + 4  # the lateral loops' gain once the depth is reached (of ω_c)
-N_PARAMS = P_SETTLE_GAIN + 1
+P_TILT_RATE = P_SETTLE_GAIN + 1  # the fastest a tilt row turns the peg [rad/s]
+N_PARAMS = P_TILT_RATE + 1
 
 
 def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray:
@@ -126,6 +127,7 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
             prm[P_F0 + j] / dt, NOTCH_QUALITY, dt)  # fmt: skip
     prm[P_SETTLE] = p.settle_force
     prm[P_SETTLE_GAIN] = p.settle_gain
+    prm[P_TILT_RATE] = p.tilt_rate
     prm[P_DEPTH_F : P_DEPTH_F + 6] = second_order_coefficients(
         p.depth_filter_frequency, p.filter_damping, dt)  # fmt: skip
     # the depth loop's effort is a row above its noise through that faster filter, as the
@@ -264,7 +266,9 @@ def robust_rows(
             wc = prm[P_WC] if m[C_REACHED] == 0.0 else prm[P_SETTLE_GAIN] * prm[P_WC]
             m[C_INT + ident.ROWS[r_d]] += wc * v_d * dt
             if depth >= prm[P_TILT_DEPTH]:  # at the entry a tilt row cannot tell tilt
-                m[C_INT + ident.ROWS[r_t]] += wc * v_t * dt
+                # no faster than tilt_rate: a faster turn passes zero before it is seen
+                turn = prm[P_TILT_RATE] * dt
+                m[C_INT + ident.ROWS[r_t]] += min(max(wc * v_t * dt, -turn), turn)
         for j in range(4):
             f = ident.ROWS[j]
             k_used = k_row[j]

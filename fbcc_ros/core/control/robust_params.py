@@ -95,6 +95,11 @@ class RobustParams:
         plane_gate: A plane whose two rows are both inside their dead band holds (nothing to
             sense); one that is not integrates both rows whole, so that a weak tilt row is not
             eaten by its dead band while its plane is in contact.
+        tilt_rate: The fastest a tilt row may turn the peg [rad/s]: the overshoot allowed
+            (0.2°) in one ``loop_delay`` of the robust scenarios (0.05 s). A tilt turning
+            faster passes its zero before the response that says so is back: a stiff part
+            coming free 1.4 mm in turned at 6°/s and passed zero by 0.76° (trial 7478 of
+            seed 29, ``docs/reproduction.md``).
         lateral_lead, tilt_lead: The most an offset [m] or tilt [rad] command may lead the
             measured pose: a contact's stiffness is unknown until the motion into it is seen,
             a ``loop_delay`` later, and an underestimate must not integrate far meanwhile.
@@ -142,6 +147,7 @@ class RobustParams:
     plane_gate: bool = True
     offset_resolution: float = 1e-6
     tilt_resolution: float = 2e-4
+    tilt_rate: float = math.radians(4.0)
     lateral_lead: float = 2e-5
     tilt_lead: float = 2e-3
     tilt_depth: float = 2e-4
@@ -154,6 +160,7 @@ class RobustParams:
         "depth_filter_frequency", "depth_lead", "fz_back_off", "guard_amplitude",
         "guard_backoff", "guard_hold", "F_ext_limit", "guard_effort", "settle_gain",
         "offset_resolution", "tilt_resolution", "phase_margin", "lateral_lead", "tilt_lead",
+        "tilt_rate",
     )  # fmt: skip
 
     def __post_init__(self) -> None:

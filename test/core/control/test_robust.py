@@ -664,3 +664,23 @@ def test_at_the_depth_the_loops_settle_at_settle_gain() -> None:
     rates = [np.diff(c[at_depth + 500 :, 0]).mean() for c in runs]  # after the dither's fade
     assert rates[1] != 0.0
     assert rates[0] / rates[1] == pytest.approx(RobustParams().settle_gain, rel=1e-3), rates
+
+
+def test_a_tilt_row_turns_no_faster_than_tilt_rate() -> None:
+    """A tilt response far beyond the row's hold: the tilt command turns at tilt_rate on
+    average (the dither on top), where without the bound the same response turns it several
+    times faster (as a stiff part coming free did: 6°/s, trial 7478 of seed 29)."""
+    rates = []
+    for tilt_rate in (RobustParams().tilt_rate, 1e3):
+        law = RobustFbcc(_pair("clearance", 1e9), RobustParams(tilt_depth=0.0,
+                                                               tilt_rate=tilt_rate))
+        x = np.zeros(5)
+        x[2] = 0.005
+        law.reset(x)
+        tilts = []
+        for _ in range(300):
+            x = law.step(np.array([0.0, 0.0, 5.0, 0.0, 0.5]), x, DT)
+            tilts.append(x[4])
+        rates.append(abs(tilts[-1] - tilts[99]) / (200 * DT))
+    assert rates[0] == pytest.approx(RobustParams().tilt_rate, rel=0.05), rates
+    assert rates[1] > 3 * rates[0], rates
