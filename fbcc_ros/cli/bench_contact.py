@@ -1,0 +1,51 @@
+"""``fbcc-bench``'s figures for the contact-state estimators (issue "know the contact"): what
+each costs per 1 kHz sample along a simulated insertion, against the 100 µs a sample the
+estimator may take."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from fbcc_ros.core.control.contact_state import ContactStateEstimator
+from fbcc_ros.core.control.deviation_filter import DeviationFilter
+from fbcc_ros.core.paper import paper_scenario
+from fbcc_ros.core.sim.scenario import validate
+from fbcc_ros.core.sim.simulation import simulate
+
+#: The estimator's budget per 1 kHz sample [µs].
+STATE_BUDGET_US = 100.0
+#: The deviation filter updates at every this many samples (200 Hz at 1 kHz, as the study and
+#: ``fbcc-report`` run it).
+FILTER_EVERY = 5
+
+
+def bench_contact_state(steps: int) -> dict[str, tuple[float, float]]:
+    """Per 1 kHz sample [µs], (median, p99) for one response's posterior, and (mean, p99 of
+    one update) for the deviation filter updated every FILTER_EVERY samples, along the first
+    ``steps`` samples of the paper's interference assembly."""
+    sc = validate(paper_scenario("interference"))
+    _, trajectory = simulate(sc, "fbcc", record=True)
+    assert trajectory is not None  # record=True
+    measured = trajectory.measured[:steps, 0, :]
+    pose = trajectory.pose[:steps, 0, :]
+    estimator = ContactStateEstimator(sc.geometry)
+    estimator.probabilities(measured[:1], pose[:1, 2])  # compiled before timing
+    one = []
+    for k in range(len(measured)):
+        t0 = time.perf_counter()
+        estimator.probabilities(measured[k : k + 1], pose[k : k + 1, 2])
+        one.append(time.perf_counter() - t0)
+    history = DeviationFilter(sc.geometry)
+    updates = []
+    for k in range(0, len(measured), FILTER_EVERY):
+        t0 = time.perf_counter()
+        history.update(measured[k], pose[k])
+        updates.append(time.perf_counter() - t0)
+    return {
+        "one response": (float(np.median(one)) * 1e6, float(np.percentile(one, 99)) * 1e6),
+        f"deviation filter, an update per {FILTER_EVERY}": (
+            float(np.sum(updates)) / len(measured) * 1e6,
+            float(np.percentile(updates, 99)) * 1e6),
+    }
