@@ -4,7 +4,7 @@ paper's sector rule, our boundary mapping and the contact-state estimator
 (:func:`~fbcc_ros.core.contact.segmentation.feature_state` on the true part).
 
 * **Drawn responses**: per state of XOZ, features drawn inside it on parts drawn from the
-  estimator's :class:`~fbcc_ros.core.control.contact_state.Uncertainty` (with their own seed,
+  estimator's :class:`~fbcc_ros.core.control.contact_uncertainty.Uncertainty` (with their own seed,
   and either way of drawing magnitudes), responses with the sensor's noise; each classified
   from that one response.
 * **Along insertions**: the simulator's closed loop (the scenario's law, the robust one by
