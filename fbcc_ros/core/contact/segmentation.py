@@ -57,13 +57,17 @@ FZ_MIN = 0.05
 StatePair = tuple[str, str] | tuple[NDArray[np.object_], NDArray[np.object_]]
 
 _LETTER = {1: "D", 0: "P", -1: "D^"}
-_LABELS = np.array(
-    [[f"{_LETTER[t]}{d}" for d in (-1, 0, 1)] for t in (-1, 0, 1)], dtype=object
-)  # indexed [tilt sign + 1, offset sign + 1]
+#: The index into :data:`STATES` of each pair of signs: ``[tilt sign + 1, offset sign + 1]``.
+STATE_INDEX = np.array([[STATES.index(f"{_LETTER[t]}{d}") for d in (-1, 0, 1)]
+                        for t in (-1, 0, 1)])  # fmt: skip
+#: (offset sign, tilt sign) of each state of :data:`STATES`.
+SIGNS = tuple((d, t) for name in STATES for t in (-1, 0, 1) for d in (-1, 0, 1)
+              if f"{_LETTER[t]}{d}" == name)  # fmt: skip
+_NAMES = np.asarray(STATES, dtype=object)
 
 
 def _labels(offset_sign: NDArray[np.int64], tilt_sign: NDArray[np.int64]) -> NDArray[np.object_]:
-    return _LABELS[tilt_sign + 1, offset_sign + 1]  # type: ignore[no-any-return]
+    return _NAMES[STATE_INDEX[tilt_sign + 1, offset_sign + 1]]  # type: ignore[no-any-return]
 
 
 def _banded_sign(x: FloatArray, tol: float) -> NDArray[np.int64]:
@@ -77,6 +81,26 @@ def _result(xoz: NDArray[np.object_], yoz: NDArray[np.object_], single: bool) ->
     return xoz, yoz
 
 
+def plane_state_index(
+    offset: FloatArray,
+    tilt: FloatArray,
+    depth: FloatArray,
+    hole_radius: float | FloatArray,
+    peg_radius: float | FloatArray,
+    offset_tol: float = OFFSET_TOL,
+    tilt_tol: float = TILT_TOL,
+) -> NDArray[np.int64]:
+    """The state of one plane (Fig. 4, eq. 15-17) as an index into :data:`STATES`, for arrays
+    of its offset, tilt and depth; the radii scalars or one per row (a clearance fit where
+    r < R)."""
+    index = STATE_INDEX[_banded_sign(tilt, tilt_tol) + 1, _banded_sign(offset, offset_tol) + 1]
+    # eq. (15): no contact while |d ± l sin(theta)/2 ± r cos(theta)| <= R for every sign
+    reach = np.abs(offset) + depth * np.abs(np.sin(tilt)) / 2 + peg_radius * np.cos(tilt)
+    inside = (np.asarray(peg_radius) < np.asarray(hole_radius)) & (reach <= hole_radius)
+    # an interference fit: P0 only at the point d = 0, theta = 0 (eq. 17), the bands above
+    return np.where(inside, STATES.index("P0"), index)  # type: ignore[no-any-return]
+
+
 def _plane_feature_state(
     offset: FloatArray,
     tilt: FloatArray,
@@ -85,12 +109,8 @@ def _plane_feature_state(
     offset_tol: float,
     tilt_tol: float,
 ) -> NDArray[np.object_]:
-    labels = _labels(_banded_sign(offset, offset_tol), _banded_sign(tilt, tilt_tol))
-    if ph.fit == "clearance":
-        # eq. (15): no contact while |d ± l sin(theta)/2 ± r cos(theta)| <= R for every sign
-        reach = np.abs(offset) + depth * np.abs(np.sin(tilt)) / 2 + ph.peg_radius * np.cos(tilt)
-        labels = np.where(reach <= ph.hole_radius, "P0", labels)
-    return labels  # interference fit: P0 only at the point d = 0, theta = 0 (eq. 17)
+    return _NAMES[plane_state_index(offset, tilt, depth, ph.hole_radius, ph.peg_radius,
+                                    offset_tol, tilt_tol)]  # type: ignore[no-any-return]
 
 
 def feature_state(

@@ -12,18 +12,18 @@ import numpy as np
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import PegHole
-from fbcc_ros.core.contact.segmentation import OFFSET_TOL, STATES, TILT_TOL, feature_state
+from fbcc_ros.core.contact.segmentation import (
+    OFFSET_TOL,
+    SIGNS,
+    STATES,
+    TILT_TOL,
+    feature_state,
+)
 from fbcc_ros.core.control.robust_params import DEFAULT_SENSOR_NOISE
 from fbcc_ros.core.errors import ConfigError, InputError
 
 #: How :class:`Uncertainty` draws an offset's or a tilt's magnitude off its band.
 MAGNITUDES = ("log", "uniform")
-#: (offset sign, tilt sign) of each state of :data:`STATES`.
-SIGNS = tuple(
-    (0 if s.endswith("0") else (-1 if s.endswith("-1") else 1),
-     0 if s.startswith("P") else (-1 if s.startswith("D^") else 1))
-    for s in STATES
-)  # fmt: skip
 
 
 @dataclasses.dataclass(frozen=True)

@@ -45,10 +45,9 @@ from fbcc_ros.core.contact.features import true_rows
 from fbcc_ros.core.contact.model import ContactBatch, PegHole, as_rows
 from fbcc_ros.core.contact.segmentation import (
     FZ_MIN,
-    OFFSET_TOL,
     STATES,
-    TILT_TOL,
     normalised_coordinates,
+    plane_state_index,
 )
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.errors import ConfigError
@@ -177,18 +176,13 @@ class DeviationFilter:
         return np.where(predicted[:, 2] > FZ_MIN, ll, CONTACT_MISMATCH)  # type: ignore[no-any-return]
 
     def states(self, x: FloatArray) -> FloatArray:
-        """The weighted vote of the particles' states at their true features x (P, 5)."""
+        """The weighted vote of the particles' states at their true features x (P, 5), each
+        with its own gap."""
         weights = self.weights
         out = np.zeros((2, len(STATES)))
-        clearance = (self.nominal.hole_radius + self._theta[:, 5]) - self.nominal.peg_radius
+        hole = self.nominal.hole_radius + self._theta[:, 5]
         for plane, (d, t) in enumerate(((x[:, 0], x[:, 4]), (x[:, 1], x[:, 3]))):
-            ds = np.where(d > OFFSET_TOL, 1, np.where(d < -OFFSET_TOL, -1, 0))
-            ts = np.where(t > TILT_TOL, 1, np.where(t < -TILT_TOL, -1, 0))
-            index = _STATE_INDEX[ts + 1, ds + 1]
-            # eq. 15: no contact in the plane while the peg fits within the gap
-            reach = np.abs(d) + x[:, 2] * np.abs(np.sin(t)) / 2 \
-                + self.nominal.peg_radius * (np.cos(t) - 1.0)
-            index = np.where((clearance > 0) & (reach <= clearance), 0, index)
+            index = plane_state_index(d, t, x[:, 2], hole, self.nominal.peg_radius)
             np.add.at(out[plane], index, weights)
         return out
 
@@ -205,15 +199,6 @@ class DeviationFilter:
         self._theta = SHRINK * self._theta[index] + (1 - SHRINK) * mean + kernel
         self._theta[:, 4] = np.clip(self._theta[:, 4], 0.01, None)  # μ stays positive
         self._logw = np.zeros(n)
-
-
-def _state_table() -> np.ndarray:
-    """Index into STATES by [tilt sign + 1, offset sign + 1] (segmentation's labels)."""
-    letter = {1: "D", 0: "P", -1: "D^"}
-    return np.array([[STATES.index(f"{letter[t]}{d}") for d in (-1, 0, 1)] for t in (-1, 0, 1)])
-
-
-_STATE_INDEX = _state_table()
 
 
 def along(features: FloatArray, responses: FloatArray, nominal: PegHole, every: int = 1,
