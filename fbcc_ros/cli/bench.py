@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from fbcc_ros.cli.bench_contact import STATE_BUDGET_US, bench_contact_state
+from fbcc_ros.cli.bench_contact import STATE_BUDGET_US, bench_contact_state, paper_assembly
 from fbcc_ros.core.compensation.compensator import Compensator, SensorSetup
 from fbcc_ros.core.compensation.payload import Payload
 from fbcc_ros.core.errors import FbccError, command
@@ -23,8 +23,8 @@ from fbcc_ros.core.kinematics.ik import solve_ik
 from fbcc_ros.core.kinematics.robot import RobotModel
 from fbcc_ros.core.paper import paper_pair, paper_scenario
 from fbcc_ros.core.sim.montecarlo import draw_trials, run_montecarlo
-from fbcc_ros.core.sim.scenario import validate
-from fbcc_ros.core.sim.simulation import simulate
+from fbcc_ros.core.sim.scenario import Scenario, validate
+from fbcc_ros.core.sim.simulation import Trajectory, simulate
 
 # Targets of issue 2: one response <= 100 µs; batched >= 50 000 responses/s.
 SINGLE_TARGET_US = 100.0
@@ -134,16 +134,15 @@ def bench_montecarlo(fit: str, trials: int, workers: int) -> float:
     return time.perf_counter() - t0
 
 
-def bench_kinematics(robot_name: str, steps: int) -> tuple[float, float, float]:
+def bench_kinematics(sc: Scenario, trajectory: Trajectory, robot_name: str, steps: int
+                     ) -> tuple[float, float, float]:  # fmt: skip
     """Median feature solution [µs], and median and p99 TCP solution (IK) per 1 ms step [µs].
 
     The TCP solution follows the command features of the simulated FBCC assembly (Fig. 9,
-    interference fit) step by step, warm-started from the previous joints, with the one-period
-    velocity bound: the work the kinematics node does in the closed loop.
+    interference fit: :func:`paper_assembly`) step by step, warm-started from the previous
+    joints, with the one-period velocity bound: the work the kinematics node does in the
+    closed loop.
     """
-    sc = validate(paper_scenario("interference"))
-    _, trajectory = simulate(sc, "fbcc", record=True)
-    assert trajectory is not None
     commands = trajectory.command[:steps, 0, :]
     robot = RobotModel.from_name(robot_name)
     cell = CellKinematics(
@@ -164,17 +163,16 @@ def bench_kinematics(robot_name: str, steps: int) -> tuple[float, float, float]:
     )
 
 
-def bench_controller(steps: int) -> dict[str, tuple[float, float]]:
+def bench_controller(sc: Scenario, trajectory: Trajectory, steps: int
+                     ) -> dict[str, tuple[float, float]]:  # fmt: skip
     """Median and p99 [µs] of one controller period (the supervisor around the law, as the
-    fbcc_controller node calls it) along a simulated assembly's measured responses and poses:
-    the robust law (identification, guard and scheduling on) and Table I's label 3."""
+    fbcc_controller node calls it) along a simulated assembly's measured responses and poses
+    (:func:`paper_assembly`): the robust law (identification, guard and scheduling on) and
+    Table I's label 3."""
     from fbcc_ros.core.control.compliance import ComplianceParams
     from fbcc_ros.core.control.laws import make_law
     from fbcc_ros.core.control.supervisor import SafetyLimits, Supervisor
 
-    sc = validate(paper_scenario("interference"))
-    _, trajectory = simulate(sc, "fbcc", record=True)
-    assert trajectory is not None
     measured = trajectory.measured[:steps, 0, :]
     poses = trajectory.command[:steps, 0, :]  # where the robot was asked to be: close enough
     out = {}
@@ -342,15 +340,17 @@ def main(argv: list[str] | None = None) -> int:
     rt = bench_assembly("interference", 1 if args.short else 5)
     _line("one assembly at 1 kHz [x real time]", f"{rt:.1f}", f">= {REALTIME_TARGET:.0f}",
           rt / REALTIME_TARGET)  # fmt: skip
+    assembly = paper_assembly()
     for robot in ("iiwa14",) if args.short else ("iiwa14", "panda", "ur5"):
-        features_us, ik_us, ik_p99 = bench_kinematics(robot, 300 if args.short else 5000)
+        features_us, ik_us, ik_p99 = bench_kinematics(*assembly, robot,
+                                                      300 if args.short else 5000)
         _line(f"feature solution [µs] ({robot})", f"{features_us:.1f}",
               f"<= {FEATURES_TARGET_US:.0f}", FEATURES_TARGET_US / features_us)  # fmt: skip
         _line(f"TCP solution (IK), 1 ms step [µs] ({robot})", f"{ik_us:.1f}",
               f"<= {IK_TARGET_US:.0f}", IK_TARGET_US / ik_us)  # fmt: skip
         _line(f"  same, p99 [µs] ({robot})", f"{ik_p99:.1f}", f"<= {IK_TARGET_US:.0f}",
               IK_TARGET_US / ik_p99)  # fmt: skip
-    controller = bench_controller(300 if args.short else 3000)
+    controller = bench_controller(*assembly, 300 if args.short else 3000)
     for name, (p50, p99) in controller.items():
         _line(f"controller period [µs] ({name})", f"{p50:.1f}", f"<= {CONTROLLER_BUDGET_US:.0f}",
               CONTROLLER_BUDGET_US / p50)  # fmt: skip
@@ -363,7 +363,8 @@ def main(argv: list[str] | None = None) -> int:
               f"<= {COMPENSATION_BUDGET_US:.0f}", COMPENSATION_BUDGET_US / us)  # fmt: skip
         _line(f"  same, p99 [µs] ({name})", f"{p99:.1f}", f"<= {COMPENSATION_BUDGET_US:.0f}",
               COMPENSATION_BUDGET_US / p99)  # fmt: skip
-    (p50, p99), (mean, update_p99) = bench_contact_state(500 if args.short else 4000).values()
+    (p50, p99), (mean, update_p99) = bench_contact_state(
+        *assembly, 500 if args.short else 4000).values()
     _line("contact state, one response [µs a sample]", f"{p50:.1f}",
           f"<= {STATE_BUDGET_US:.0f}", STATE_BUDGET_US / p50)  # fmt: skip
     _line("contact state, deviation filter [µs a sample]", f"{mean:.1f}",

@@ -11,8 +11,8 @@ import numpy as np
 from fbcc_ros.core.control.contact_state import ContactStateEstimator
 from fbcc_ros.core.control.deviation_filter import DeviationFilter
 from fbcc_ros.core.paper import paper_scenario
-from fbcc_ros.core.sim.scenario import validate
-from fbcc_ros.core.sim.simulation import simulate
+from fbcc_ros.core.sim.scenario import Scenario, validate
+from fbcc_ros.core.sim.simulation import Trajectory, simulate
 
 #: The estimator's budget per 1 kHz sample [µs].
 STATE_BUDGET_US = 100.0
@@ -21,13 +21,20 @@ STATE_BUDGET_US = 100.0
 FILTER_EVERY = 5
 
 
-def bench_contact_state(steps: int) -> dict[str, tuple[float, float]]:
-    """Per 1 kHz sample [µs], (median, p99) for one response's posterior, and (mean, p99 of
-    one update) for the deviation filter updated every FILTER_EVERY samples, along the first
-    ``steps`` samples of the paper's interference assembly."""
+def paper_assembly() -> tuple[Scenario, Trajectory]:
+    """The paper's interference assembly, simulated once for the benchmarks that replay its
+    samples."""
     sc = validate(paper_scenario("interference"))
     _, trajectory = simulate(sc, "fbcc", record=True)
     assert trajectory is not None  # record=True
+    return sc, trajectory
+
+
+def bench_contact_state(sc: Scenario, trajectory: Trajectory, steps: int
+                        ) -> dict[str, tuple[float, float]]:  # fmt: skip
+    """Per 1 kHz sample [µs], (median, p99) for one response's posterior, and (mean, p99 of
+    one update) for the deviation filter updated every FILTER_EVERY samples, along the first
+    ``steps`` samples of an assembly (:func:`paper_assembly`)."""
     measured = trajectory.measured[:steps, 0, :]
     pose = trajectory.pose[:steps, 0, :]
     estimator = ContactStateEstimator(sc.geometry)
