@@ -223,6 +223,16 @@ def test_each_layer_imports_only_the_layers_below_it(layer: str) -> None:
     assert not {k: v for k, v in wrong.items() if v}, wrong
 
 
+#: The longest a module of the package may be [lines]: one concept a module.
+MODULE_LINES = 400
+
+
+def test_no_module_of_the_package_is_over_400_lines() -> None:
+    long = {str(p.relative_to(ROOT)): n for p in sorted((ROOT / "fbcc_ros").rglob("*.py"))
+            if (n := len(p.read_text().splitlines())) > MODULE_LINES}  # fmt: skip
+    assert not long, long
+
+
 def test_the_tests_mirror_the_package_layout() -> None:
     """Each test folder is named for the package folder whose modules it tests."""
     folders = [p for p in (ROOT / "test").rglob("*") if p.is_dir()

@@ -14,6 +14,10 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
+import numpy as np
+
+from fbcc_ros.core.arrays import FloatArray
+
 
 class FbccError(Exception):
     """Base class of every error fbcc_ros raises on purpose."""
@@ -56,6 +60,17 @@ def require_number(field: str, value: Any, *, positive: bool = False) -> float:
     if not math.isfinite(value) or (positive and not value > 0):
         raise ConfigError(field, value, "a finite number > 0" if positive else "a finite number")
     return float(value)
+
+
+def require_vector(field: str, value: Any, size: int) -> FloatArray:
+    """``value`` as ``size`` finite floats, else a :class:`ConfigError` naming ``field``."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError(field, value, f"{size} finite numbers") from None
+    if arr.shape != (size,) or not np.isfinite(arr).all():
+        raise ConfigError(field, value, f"{size} finite numbers")
+    return arr
 
 
 def closest(name: str, names: Sequence[str]) -> str:

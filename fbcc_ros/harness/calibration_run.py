@@ -161,7 +161,7 @@ def _truth(mock: dict[str, Any]) -> dict[str, Any]:
 
 def fit_error(truth: dict[str, Any], payload_yaml: Path) -> dict[str, float]:
     """The fit's error against the truth: mass [kg], centre of mass [m], bias [N], [N m]."""
-    from fbcc_ros.core.compensation.compensator import load_calibration
+    from fbcc_ros.core.compensation.calibration_file import load_calibration
 
     payload, bias = load_calibration(payload_yaml)
     if not np.isfinite(bias).all():

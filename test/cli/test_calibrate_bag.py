@@ -19,7 +19,8 @@ from fbcc_ros.cli import calibrate
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.compensation import calibration_data as cd
 from fbcc_ros.core.compensation import calibration_poses as cp
-from fbcc_ros.core.compensation.compensator import SENSOR_FRAME, load_calibration
+from fbcc_ros.core.compensation.calibration_file import load_calibration
+from fbcc_ros.core.compensation.compensator import SENSOR_FRAME
 from fbcc_ros.ros.convert import joints_to_cdr, wrench_to_cdr
 from test.core.compensation.test_calibration_data import (
     BIAS,

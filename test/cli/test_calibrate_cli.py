@@ -11,7 +11,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from fbcc_ros.cli import calibrate
-from fbcc_ros.core.compensation.compensator import SENSOR_FRAME, load_calibration
+from fbcc_ros.core.compensation.calibration_file import load_calibration
+from fbcc_ros.core.compensation.compensator import SENSOR_FRAME
 from fbcc_ros.core.compensation.payload import GRAVITY_BASE, Motion, Payload, payload_wrench
 from fbcc_ros.core.kinematics.robot import RobotModel, pose
 

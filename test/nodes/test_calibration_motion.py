@@ -17,9 +17,10 @@ import pinocchio as pin
 import pytest
 
 from fbcc_ros.bag.reader import read_bag
-from fbcc_ros.cli import calibrate
+from fbcc_ros.cli import calibrate_bag
 from fbcc_ros.core.compensation import calibration_data as cd
-from fbcc_ros.core.compensation.compensator import SENSOR_FRAME, load_calibration
+from fbcc_ros.core.compensation.calibration_file import load_calibration
+from fbcc_ros.core.compensation.compensator import SENSOR_FRAME
 from fbcc_ros.core.kinematics.robot import RobotModel
 from fbcc_ros.nodes.bringup import main as bringup
 from test.core.compensation.test_calibration_data import BIAS, HOLDER, within_noise
@@ -59,7 +60,7 @@ def test_a_recorded_calibration_motion_fits_the_wrist_payload_and_bias(tmp_path:
     # the fit the bringup made with fbcc-calibrate, to the noise of the poses it held
     robot = RobotModel(description, "lbr_link_ee")
     robot.add_frame(SENSOR_FRAME, pin.SE3.Identity())
-    joints, readings, frames = calibrate.bag_series(read_bag(bag), "/lbr/joint_states",
+    joints, readings, frames = calibrate_bag.bag_series(read_bag(bag), "/lbr/joint_states",
                                                     "/lbr/wrist_sensor/raw", robot)  # fmt: skip
     assert set(frames) == {"wrist_sensor"}
     dwells = cd.static_samples(joints, readings).dwells

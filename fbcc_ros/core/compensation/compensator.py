@@ -31,18 +31,15 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from pathlib import Path
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
 import pinocchio as pin
-import yaml
 from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.compensation.payload import (
     GRAVITY_BASE,
-    Calibration,
     Motion,
     Payload,
     payload_wrench,
@@ -50,11 +47,9 @@ from fbcc_ros.core.compensation.payload import (
 )
 from fbcc_ros.core.compensation.wrench import response_from_wrench, transfer_matrix, virtual_wrench
 from fbcc_ros.core.compensation.wrench_guard import GuardLimits, WrenchGuard
-from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.files import read_text
+from fbcc_ros.core.errors import ConfigError, InputError, require_vector
 from fbcc_ros.core.filters import LowPass, dead_band
 from fbcc_ros.core.kinematics.robot import RobotModel
-from fbcc_ros.core.param_files import node_section
 
 Placement = Literal["under_hole", "wrist"]
 PLACEMENTS = ("under_hole", "wrist")
@@ -62,8 +57,6 @@ PLACEMENTS = ("under_hole", "wrist")
 #: Name of the Pinocchio frame added at a wrist sensor's measuring frame.
 SENSOR_FRAME = "fbcc_sensor"
 
-#: Node name whose parameters the calibration YAML holds.
-NODE_NAME = "dynamic_compensation"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -111,9 +104,9 @@ class SensorSetup:
             raise ConfigError("placement", self.placement, f"one of {PLACEMENTS}")
         if not (isinstance(self.frame, str) and self.frame):
             raise ConfigError("sensor_frame", self.frame, "a non-empty frame name")
-        _finite("acting_point", self.acting_point, 3)
-        _finite("bias", self.bias, 6)
-        band = _finite("deadband", self.deadband, 2)
+        require_vector("acting_point", self.acting_point, 3)
+        require_vector("bias", self.bias, 6)
+        band = require_vector("deadband", self.deadband, 2)
         if (band < 0).any():
             raise ConfigError("deadband", self.deadband, "[force N, moment N m], both >= 0")
         for field in ("pose", "hole_in_base"):
@@ -312,7 +305,7 @@ class Compensator:
 
     def set_filters(self, lowpass_hz: float, deadband: ArrayLike) -> None:
         """Changes the output filters at runtime (the low-pass restarts from the next sample)."""
-        band = _finite("deadband", deadband, 2)
+        band = require_vector("deadband", deadband, 2)
         if (band < 0).any():
             raise ConfigError("deadband", deadband, "[force N, moment N m], both >= 0")
         self._lowpass = LowPass(lowpass_hz)
@@ -366,58 +359,3 @@ def sensor_motion(
         np.array(velocity.angular),
         np.array(accel.angular),
     )
-
-
-def _finite(field: str, value: ArrayLike, size: int) -> FloatArray:
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != (size,) or not np.isfinite(arr).all():
-        raise ConfigError(field, value, f"{size} finite numbers")
-    return arr
-
-
-def calibration_yaml(fit: Calibration, comment: str) -> str:
-    """The parameter file the ``dynamic_compensation`` node loads, with the fit's quality in a
-    comment header."""
-    params = {
-        f"/**/{NODE_NAME}": {  # any namespace: the node under /lbr reads it too
-            "ros__parameters": {
-                "payload": {
-                    "mass": float(fit.payload.mass),
-                    "com": [float(x) for x in fit.payload.com],
-                    "inertia": [float(x) for row in fit.payload.inertia for x in row],
-                },
-                "bias": [float(x) for x in fit.bias],
-            }
-        }
-    }
-    header = "".join(f"# {line}\n" for line in comment.splitlines())
-    return header + yaml.safe_dump(params, sort_keys=False, default_flow_style=None)
-
-
-def load_calibration(path: str | Path) -> tuple[Payload, FloatArray]:
-    """Payload and bias from a file :func:`calibration_yaml` wrote (or a node parameter file
-    with the same keys)."""
-    try:
-        data: Any = yaml.safe_load(read_text(path, "calibration file"))
-        params = node_section(data, NODE_NAME)
-        if params is None:
-            raise KeyError(NODE_NAME)
-        payload = params["payload"]
-        inertia = np.asarray(payload.get("inertia", [0.0] * 9), dtype=float).reshape(3, 3)
-        return (
-            Payload(
-                float(payload["mass"]),
-                tuple(float(x) for x in payload["com"]),  # type: ignore[arg-type]
-                tuple(map(tuple, inertia.tolist())),
-            ),
-            _finite("bias", params["bias"], 6),
-        )
-    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError) as exc:
-        if isinstance(exc, ConfigError):
-            raise
-        raise ConfigError(
-            "calibration",
-            str(path),
-            f"a YAML file with {NODE_NAME}.ros__parameters.payload.(mass, com, inertia) and .bias"
-            f" ({type(exc).__name__}: {exc})",
-        ) from exc

@@ -33,17 +33,10 @@ import pinocchio as pin
 from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
-from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.errors import ConfigError, InputError, require_vector
 
 #: Standard gravity in a z-up base frame [m/s²].
 GRAVITY_BASE = np.array([0.0, 0.0, -9.80665])
-
-
-def _vector(value: ArrayLike, field: str, size: int = 3) -> FloatArray:
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != (size,) or not np.isfinite(arr).all():
-        raise ConfigError(field, value, f"{size} finite numbers")
-    return arr
 
 
 @dataclasses.dataclass(frozen=True)
@@ -64,7 +57,7 @@ class Payload:
     def __post_init__(self) -> None:
         if not (np.isfinite(self.mass) and self.mass >= 0.0):
             raise ConfigError("payload.mass", self.mass, "a mass >= 0 [kg]")
-        _vector(self.com, "payload.com")
+        require_vector("payload.com", self.com, 3)
         inertia = np.asarray(self.inertia, dtype=float)
         if inertia.shape != (3, 3) or not np.isfinite(inertia).all():
             raise ConfigError("payload.inertia", self.inertia, "a 3x3 finite matrix [kg m²]")
@@ -129,7 +122,8 @@ def compensate(
 
     Raises :class:`InputError` on a non-finite reading rather than propagate it.
     """
-    return subtract(wrench_measured, payload_wrench(payload, motion), _vector(bias, "bias", 6))
+    bias = require_vector("bias", bias, 6)
+    return subtract(wrench_measured, payload_wrench(payload, motion), bias)
 
 
 def subtract(wrench_measured: ArrayLike, payload: FloatArray, bias: FloatArray) -> FloatArray:

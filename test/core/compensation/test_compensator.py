@@ -1,12 +1,11 @@
 """The dynamic compensation pipeline (fbcc_ros.core.compensation.compensator): sign and frame for a
 sensor under the hole and a wrist sensor against hand-worked cases, the virtual sensor from joint
-torques, a moving wrist payload, round trips through the contact model, the filters, the rejected
-samples and the calibration file."""
+torques, a moving wrist payload, round trips through the contact model, the filters, and the
+rejected samples."""
 
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -19,10 +18,8 @@ from fbcc_ros.core.compensation.compensator import (
     SENSOR_FRAME,
     Compensator,
     SensorSetup,
-    calibration_yaml,
-    load_calibration,
 )
-from fbcc_ros.core.compensation.payload import Calibration, Motion, Payload, payload_wrench
+from fbcc_ros.core.compensation.payload import Motion, Payload, payload_wrench
 from fbcc_ros.core.compensation.wrench import transfer, wrench_from_response
 from fbcc_ros.core.compensation.wrench_guard import GuardLimits
 from fbcc_ros.core.contact.model import PegHole
@@ -315,24 +312,3 @@ def test_bad_setup() -> None:
         SensorSetup(bias=(0.0,) * 5)
     with pytest.raises(ConfigError, match="lowpass_hz"):
         Compensator(SensorSetup(lowpass_hz=-5.0))
-
-
-def test_calibration_file_round_trip(tmp_path: Path) -> None:
-    fit = Calibration(
-        Payload(0.8, (0.002, -0.001, 0.06), ((2e-3, 0, 0), (0, 2e-3, 0), (0, 0, 4e-4))),
-        BIAS,
-        (0.05, 0.002),
-        4.2,
-        24,
-    )
-    path = tmp_path / "payload.yaml"
-    path.write_text(calibration_yaml(fit, "static fit\nresidual 0.05 N"))
-    assert path.read_text().startswith("# static fit\n# residual 0.05 N\n")
-    payload, bias = load_calibration(path)
-    assert payload == fit.payload
-    np.testing.assert_array_equal(bias, BIAS)
-    path.write_text("dynamic_compensation:\n  ros__parameters:\n    bias: [1, 2]\n")
-    with pytest.raises(ConfigError, match=r"calibration=.*payload\.\(mass, com, inertia\)"):
-        load_calibration(path)
-    with pytest.raises(ConfigError, match="calibration"):
-        load_calibration(tmp_path / "missing.yaml")
