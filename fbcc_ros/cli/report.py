@@ -17,8 +17,9 @@ Writes to DIR (default: ``<bag folder>/report``):
 - ``states.png``: the contact state of each plane (boundary mapping, eq. 21-25) and the
   controller's phase against time;
 - ``contact_states.png``: the contact state of each plane by the deviation filter (the history
-  of responses and measured features, at most 200 updates a second), with its probability,
-  and the mock's true state when recorded (its agreement in the summary);
+  of responses and measured features), with its probability, and the mock's true state when
+  recorded (its agreement in the summary): the controller's own estimate when the bag holds
+  ``fbcc/contact_state_estimate``, else the filter run here (at most 200 updates a second);
 - ``summary.json`` and ``summary.md``: the phases with their times, the final features, the
   peak forces, the time in each contact state, the message counts, and whether the bag is
   truncated (also said on stderr).
@@ -43,6 +44,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from fbcc_ros.bag.reader import Bag, read_bag
+from fbcc_ros.cli import report_states
 from fbcc_ros.cli.sim_plots import Series, draw_planes, draw_trajectories
 from fbcc_ros.core.contact.model import FEATURE_NAMES, RESPONSE_NAMES, PegHole
 from fbcc_ros.core.errors import InputError, command
@@ -223,78 +225,6 @@ def contact_estimate(bag: Bag, t0: float) -> tuple[np.ndarray, np.ndarray] | Non
     return rows[:, 0] - t0, rows[:, 1:]
 
 
-#: The rate the report runs the deviation filter at, at most [Hz] (every n-th sample).
-STATE_RATE_HZ = 200.0
-
-
-def estimate_states(s: Session, nominal: PegHole) -> dict[str, Any] | None:
-    """The contact state along the session by the deviation filter
-    (:func:`~fbcc_ros.core.control.deviation_filter.along`), from the first command, and the
-    mock's true state (its true features, segmented with the nominal radii) at each update
-    when the truth was recorded. None when the session never touched."""
-    from fbcc_ros.core.contact.segmentation import STATES, feature_state, response_state
-    from fbcc_ros.core.control.deviation_filter import along
-
-    active = np.flatnonzero(s.t >= 0.0)
-    if len(active) < 2:
-        return None
-    rate = 1.0 / float(np.median(np.diff(s.t[active])))
-    every = max(1, round(rate / STATE_RATE_HZ))
-    rows, p = along(s.features[active], s.response[active], nominal, every)
-    if not len(rows):
-        return None
-    t = s.t[active][rows]
-    mapped = np.column_stack(response_state(s.response[active][rows],
-                                            np.maximum(s.features[active][rows, 2], 0.0),
-                                            nominal))  # fmt: skip
-    out: dict[str, Any] = {"t": t, "p": p, "every": every, "truth": None,
-                           "mapped": np.vectorize(STATES.index)(mapped)}  # fmt: skip
-    if s.truth is not None:  # in the hole only: above it there is no state to name
-        t_true, x_true, _ = s.truth
-        at = np.clip(np.searchsorted(t_true, t, side="right") - 1, 0, len(t_true) - 1)
-        x = x_true[at]
-        xoz, yoz = feature_state(np.where(x[:, 2:3] > 0, x, 0.0), nominal)
-        truth = np.column_stack([np.vectorize(STATES.index)(xoz),
-                                 np.vectorize(STATES.index)(yoz)])  # fmt: skip
-        out["truth"] = np.where(x[:, 2:3] > 0, truth, -1)
-    return out
-
-
-def agreement(est: dict[str, Any]) -> dict[str, dict[str, float]] | None:
-    """Per method and plane, the share of the updates in the hole whose state is the true one."""
-    if est["truth"] is None or not (est["truth"] >= 0).any():
-        return None
-    inside = est["truth"][:, 0] >= 0
-    named = {"deviation filter": est["p"].argmax(axis=2), "boundary mapping": est["mapped"]}
-    return {method: {plane: round(float((n[inside, i] == est["truth"][inside, i]).mean()), 4)
-                     for i, plane in enumerate(("XOZ", "YOZ"))}
-            for method, n in named.items()}  # fmt: skip
-
-
-def draw_state_estimate(est: dict[str, Any], path: Path) -> Path:
-    """Per plane the most probable state (coloured by its probability) and the true one."""
-    from fbcc_ros.core.contact.segmentation import STATES
-
-    fig, axes = plt.subplots(2, 1, figsize=(12, 6), sharex=True)
-    named, p = est["p"].argmax(axis=2), est["p"].max(axis=2)
-    for plane, (ax, name) in enumerate(zip(axes, ("XOZ", "YOZ"), strict=True)):
-        if est["truth"] is not None:
-            truth = np.where(est["truth"][:, plane] >= 0, est["truth"][:, plane], np.nan)
-            ax.step(est["t"], truth, where="post", color="0.6", lw=3, label="true (mock)")
-        dots = ax.scatter(est["t"], named[:, plane], c=p[:, plane], s=6, cmap="viridis",
-                          vmin=0, vmax=1, label="estimated")  # fmt: skip
-        ax.set_yticks(range(len(STATES)), STATES)
-        ax.set_ylabel(f"{name} state")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, loc="upper right")
-    fig.colorbar(dots, ax=list(axes), label="probability")
-    axes[0].set_title("Contact state by the deviation filter (history of responses and poses)")
-    axes[1].set_xlabel("t [s] (0: the first command)")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
-
-
 def draw_estimate(t: np.ndarray, rows: np.ndarray, path: Path) -> Path:
     """The identified stiffness of the four rows (log), the friction bound, the guard's trips."""
     from fbcc_ros.core.control.identification import ESTIMATE_FIELDS
@@ -334,12 +264,14 @@ def report(bag_path: Path, out: Path | None, scenario: Path | None) -> dict[str,
     draw_planes(series, out / "planes.png")
     draw_states(s, nominal, out / "states.png")
     summary = summarise(bag, s, nominal)
-    states = estimate_states(s, nominal)
+    states = report_states.recorded_states(bag, s, nominal) or report_states.estimate_states(
+        s, nominal)
     if states is not None:
-        draw_state_estimate(states, out / "contact_states.png")
+        report_states.draw_state_estimate(states, out / "contact_states.png")
         summary["contact_state_estimate"] = {
-            "updates": len(states["t"]), "every_nth_sample": states["every"],
-            "agreement_with_truth": agreement(states)}  # fmt: skip
+            "source": states["source"], "updates": len(states["t"]),
+            "every_nth_sample": states["every"],
+            "agreement_with_truth": report_states.agreement(states)}  # fmt: skip
     estimate = contact_estimate(bag, s.t0)
     if estimate is not None:
         from fbcc_ros.core.control.identification import ESTIMATE_FIELDS

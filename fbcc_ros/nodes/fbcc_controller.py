@@ -5,8 +5,11 @@ Subscribes ``ft_sensor/compensated`` (WrenchStamped in {H}; each one is a contro
 command features as the peg's pose in {H}), ``fbcc/phase`` and ``fbcc/contact_state``
 (String, on change; the phase latched) and, with the robust law, ``fbcc/contact_estimate``
 (Float64MultiArray at ``estimate_rate_hz`` while inserting: the stamp of the sample it follows,
-then ``identification.ESTIMATE_FIELDS``). Services ``fbcc/start``, ``fbcc/abort`` and
-``fbcc/reset`` (std_srvs/Trigger).
+then ``identification.ESTIMATE_FIELDS``) and ``fbcc/contact_state_estimate`` (Float64MultiArray
+at ``state_rate_hz`` while inserting, once someone listens: the stamp of the sample it follows,
+then P(state) of XOZ and of YOZ over ``segmentation.STATES``, by the deviation filter in a
+process of its own, :mod:`fbcc_ros.pipeline.state_worker`). Services ``fbcc/start``,
+``fbcc/abort`` and ``fbcc/reset`` (std_srvs/Trigger).
 
 The law and its supervisor are :class:`~fbcc_ros.pipeline.controller.ControllerStage`'s (the
 scenario file gives the law's nominal pair, gains and insertion). Safety
@@ -23,6 +26,7 @@ from rclpy.node import Node
 from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import Trigger
 
+from fbcc_ros.core.contact.segmentation import STATES
 from fbcc_ros.core.control.identification import ESTIMATE_FIELDS
 from fbcc_ros.core.control.phase import NEEDS_RESET, Phase
 from fbcc_ros.core.errors import FbccError
@@ -40,6 +44,11 @@ __all__ = ["TABLE", "FbccControllerNode"]
 #: The layout of fbcc/contact_estimate: one dimension labelled with the fields.
 ESTIMATE_LAYOUT = [(" ".join(("stamp", *ESTIMATE_FIELDS)), len(ESTIMATE_FIELDS) + 1,
                     len(ESTIMATE_FIELDS) + 1)]  # fmt: skip
+#: The layout of fbcc/contact_state_estimate: the stamp, then P(state) per plane.
+STATE_FIELDS = ("stamp", *(f"{plane}:{s}" for plane in ("xoz", "yoz") for s in STATES))
+STATE_LAYOUT = [(" ".join(STATE_FIELDS), len(STATE_FIELDS), len(STATE_FIELDS))]
+#: Contact-state answers published per watchdog tick (100 Hz): twice the 200 Hz they come at.
+STATES_PER_TICK = 4
 
 
 class FbccControllerNode(Node):
@@ -53,6 +62,9 @@ class FbccControllerNode(Node):
         self.pub_phase = self.create_publisher(String, topics.PHASE, topics.PHASE_QOS)
         self.pub_state = self.create_publisher(String, topics.CONTACT_STATE, 10)
         self.pub_estimate = self.create_publisher(Float64MultiArray, topics.CONTACT_ESTIMATE, 100)
+        # the filter answers in bursts while it catches up: a deep queue
+        self.pub_states = self.create_publisher(Float64MultiArray,
+                                                topics.CONTACT_STATE_ESTIMATE, 1000)  # fmt: skip
         # raw: CDR bytes, decoded by fbcc_ros.ros.convert (no rclpy message objects at 1 kHz)
         sub = self.create_subscription
         sub(WrenchStamped, topics.COMPENSATED_WRENCH, self.on_wrench, 10, raw=True)
@@ -84,6 +96,10 @@ class FbccControllerNode(Node):
                   "armed": not not_armed, "not_armed": not_armed,
                   "contact_state": self._state_said, "input_rate_hz": rate.measured_hz,
                   "late_samples": self.sup.late}  # fmt: skip
+        worker = self.stage.state_worker
+        if worker is not None:
+            values["state_estimates_behind"] = worker.behind
+            values["state_samples_dropped"] = worker.dropped
         said, warnings = self.stage.said, self.stage.warnings()
         for warning in set(warnings) - self._warned:  # each said once, when it starts
             self.get_logger().warn(warning)
@@ -146,6 +162,24 @@ class FbccControllerNode(Node):
     def on_watchdog(self) -> None:
         self.sup.watchdog(self.now())
         self._publish_phase(hold=True)
+        self._publish_states()
+
+    def _publish_states(self) -> None:
+        """The contact-state filter's answers; its process starts once someone listens."""
+        if self.stage.state_worker is None:
+            if not self.pub_states.get_subscription_count():
+                return
+            if self.stage.start_state_worker():
+                self.get_logger().info("contact-state filter started (fbcc/contact_state_estimate"
+                                       " is heard)")  # fmt: skip
+        # a few a tick: a burst of answers (the filter catching up) published at once held the
+        # loop for milliseconds
+        for row in self.stage.state_estimates(STATES_PER_TICK):
+            self.pub_states.publish(encode_array(row, STATE_LAYOUT))
+
+    def destroy_node(self) -> None:
+        self.stage.close()
+        super().destroy_node()
 
     def start_insertion(self, now: float) -> tuple[bool, str]:
         ok, message = self.sup.start(now)

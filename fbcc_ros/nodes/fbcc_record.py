@@ -31,6 +31,7 @@ CELL_TOPICS = [
     topics.BIAS, topics.NOISE,
     topics.FEATURES, topics.COMMAND, topics.TCP_COMMAND, topics.PHASE, topics.CONTACT_STATE,
     topics.KINEMATICS_STATUS, topics.GUARD, topics.REARM, topics.TRUTH, topics.CONTACT_ESTIMATE,
+    topics.CONTACT_STATE_ESTIMATE,
     topics.ROBOT_DESCRIPTION,
 ]  # fmt: skip
 

@@ -30,6 +30,7 @@ from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.pipeline.lateral_watch import LateralWatch
 from fbcc_ros.pipeline.parameters import HOLE_FRAME, Param
 from fbcc_ros.pipeline.rate import InputRate
+from fbcc_ros.pipeline.state_worker import StateFeed, StateWorker
 
 _LIMITS = SafetyLimits()
 TABLE = (
@@ -51,6 +52,9 @@ TABLE = (
     Param("auto_start", False, "start the first insertion once features and wrenches arrive"),
     Param("estimate_rate_hz", 100.0, "rate of fbcc/contact_estimate (robust law; at most the "
           "control rate)", "Hz", 1.0, 10000.0),
+    Param("state_rate_hz", 200.0, "updates of fbcc/contact_state_estimate, the contact state "
+          "by the deviation filter (in a process of its own, started once the topic is heard; "
+          "at most the control rate); 0: none", "Hz", 0.0, 10000.0),
     HOLE_FRAME,  # transport settings (the node's)
 )  # fmt: skip
 
@@ -95,6 +99,11 @@ class ControllerStage:
         self.response: FloatArray | None = None  # the last period's
         self.input_rate = InputRate(rate, "the compensated wrench")
         self.lateral = LateralWatch()
+        #: the periods the contact-state filter is handed (None: no filter), and its process
+        state_rate = values["state_rate_hz"]
+        self.state_feed = StateFeed(round(rate / state_rate)) if state_rate > 0 else None
+        self.state_worker: StateWorker | None = None
+        self._was_active = False
 
     def preload(self) -> None:
         """Load the law's compiled step now, not in the first period."""
@@ -156,7 +165,44 @@ class ControllerStage:
         self.lateral.sample(self.response)
         command = self.sup.on_response(now, self.response, stamp)
         self._periods += 1
+        self._feed_state(stamp)
         return self.pose(command)
+
+    def _feed_state(self, stamp: float) -> None:
+        """Hand the contact-state filter this period's sample if its feed takes it; a new
+        insertion starts a new filter."""
+        feed, worker = self.state_feed, self.state_worker
+        active = self.sup.active
+        if feed is None or self.response is None:
+            return
+        if active and not self._was_active:
+            feed.start_insertion()
+            if worker is not None:
+                worker.start_insertion()
+        self._was_active = active
+        features = self.sup.features
+        if active and features is not None and feed.take(features, self.response):
+            if worker is not None:
+                worker.put(stamp, features, self.response)
+
+    def start_state_worker(self) -> bool:
+        """Start the contact-state filter's process (once someone listens); whether it runs."""
+        if self.state_feed is not None and self.state_worker is None:
+            self.state_worker = StateWorker(self.nominal)
+        return self.state_worker is not None
+
+    def state_estimates(self, most: int) -> list[list[float]]:
+        """At most ``most`` of the filter's answers come since the last call, oldest first:
+        each the stamp of the sample it follows, then P(state) of XOZ and of YOZ over
+        ``segmentation.STATES``."""
+        if self.state_worker is None:
+            return []
+        return [[stamp, *p.ravel().tolist()] for stamp, p in self.state_worker.answers(most)]
+
+    def close(self) -> None:
+        """Stop the contact-state filter's process."""
+        if self.state_worker is not None:
+            self.state_worker.close()
 
     def estimate(self, stamp: float) -> list[float] | None:
         """The robust law's contact estimate (``identification.ESTIMATE_FIELDS``, the stamp

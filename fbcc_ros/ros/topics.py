@@ -48,6 +48,10 @@ REARM = "fbcc/rearm"
 #: The robust law's contact identification, Float64MultiArray at ``estimate_rate_hz`` while an
 #: insertion runs: the stamp of the sample it follows, then identification.ESTIMATE_FIELDS.
 CONTACT_ESTIMATE = "fbcc/contact_estimate"
+#: The contact state by the deviation filter, Float64MultiArray at ``state_rate_hz`` while an
+#: insertion runs and someone listens: the stamp of the sample it follows, then P(state) of XOZ
+#: and of YOZ over segmentation.STATES.
+CONTACT_STATE_ESTIMATE = "fbcc/contact_state_estimate"
 START = "fbcc/start"
 ABORT = "fbcc/abort"
 #: Acknowledges a fault, a force limit or an abort (std_srvs/Trigger): back to idle.

@@ -13,8 +13,14 @@ from __future__ import annotations
 
 import itertools
 import os
+import subprocess
+import sys
+from pathlib import Path
+from typing import IO
 
 import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
 
 _BLOCK = 100 + (os.getpid() % 2) * 60
 _NEXT = itertools.cycle(range(_BLOCK, _BLOCK + 60))
@@ -24,3 +30,19 @@ _NEXT = itertools.cycle(range(_BLOCK, _BLOCK + 60))
 def ros_isolation() -> None:
     os.environ["ROS_DOMAIN_ID"] = str(next(_NEXT))
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+
+
+def recorder_and_cell(folder: Path, log: IO[str], *cell_args: str
+                      ) -> tuple[subprocess.Popen[bytes], subprocess.Popen[bytes]]:  # fmt: skip
+    """An fbcc_record recording the cell's topics into ``folder``, and the bringup (``cell_args``
+    after it), not recording itself but waiting for that recorder: two processes, both
+    logging into ``log``, as on a real cell."""
+    run = [sys.executable, "-m"]
+    recorder = subprocess.Popen(
+        [*run, "fbcc_ros.nodes.fbcc_record", "--ros-args", "-p", f"out:={folder}"],
+        cwd=ROOT, stdout=log, stderr=subprocess.STDOUT,
+    )  # fmt: skip
+    cell = subprocess.Popen([*run, "fbcc_ros.nodes.bringup", *cell_args, "--no-record",
+                             "--wait-for-recorder"], cwd=ROOT, stdout=log,
+                            stderr=subprocess.STDOUT)  # fmt: skip
+    return recorder, cell

@@ -21,6 +21,7 @@ from fbcc_ros.bag.reader import read_bag
 from fbcc_ros.nodes.fbcc_record import FbccRecordNode
 from fbcc_ros.nodes.mock_cell import MockCellNode
 from fbcc_ros.ros import cdr
+from test.nodes.conftest import recorder_and_cell
 
 ROOT = Path(__file__).resolve().parents[2]
 TOPICS = ["joint_states", "ft_sensor/raw"]
@@ -89,14 +90,8 @@ def test_a_killed_recorder_leaves_a_readable_truncated_bag_the_report_says_so(
     folder = tmp_path / "killed"
     log_path = tmp_path / "log.txt"
     log = log_path.open("w")
+    recorder, cell = recorder_and_cell(folder, log)
     run = [sys.executable, "-m"]
-    recorder = subprocess.Popen(
-        [*run, "fbcc_ros.nodes.fbcc_record", "--ros-args", "-p", f"out:={folder}"],
-        cwd=ROOT, stdout=log, stderr=subprocess.STDOUT,
-    )  # fmt: skip
-    cell = subprocess.Popen([*run, "fbcc_ros.nodes.bringup", "--no-record",
-                             "--wait-for-recorder"], cwd=ROOT, stdout=log,
-                            stderr=subprocess.STDOUT)  # fmt: skip
     try:
         deadline = time.monotonic() + 90.0
         while _recorded(folder, "/fbcc/command") < 400:

@@ -213,7 +213,8 @@ def _controller(values: dict[str, Any]) -> list[Any]:
             if command is not None:
                 out.append(command.homogeneous)
             out += [stage.estimate(stamp), stage.contact_state(), stage.said]
-    return [*out, stage.input_rate.measured_hz]
+    feed = stage.state_feed  # the samples the contact-state filter would be handed
+    return [*out, stage.input_rate.measured_hz, None if feed is None else feed.sent]
 
 
 def _mock(values: dict[str, Any]) -> list[Any]:

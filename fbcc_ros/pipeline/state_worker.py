@@ -1,0 +1,243 @@
+"""The contact state online: the deviation filter
+(:mod:`fbcc_ros.core.control.deviation_filter`) along the running insertion, in a process of its
+own, fed every n-th control period.
+
+One update of the filter costs 0.7–5 ms (500–4000 particles): several 1 kHz periods. In the
+controller's process it would hold the loop, since the interpreter runs one thread at a time.
+So the filter runs in a child interpreter, scheduled from its first line only where the loop
+leaves a core idle (:data:`LOWEST`: its start-up and its work yield to the loop), and the loop
+only writes it a sample: a pickled frame of ~300 bytes on a pipe. The
+pipes are non-blocking both ways: a frame under PIPE_BUF is written whole or not at all, so a
+child that falls too far behind costs dropped samples (counted), never a blocked loop. The
+child answers every sample, in order, with P(state) per plane. Until the cloud has converged
+(the first ~0.6–0.8 s of contact, 4000 particles) it updates slower than 200 Hz and falls
+behind; once 500 particles carry the cloud it updates 7× faster than real time and catches up.
+
+:class:`StateFeed` picks the samples it gets as
+:func:`~fbcc_ros.core.control.deviation_filter.along` takes them from the same insertion: every
+``every``-th period from the first one in contact or in the hole after the start. The filter is
+seeded, so both give the same probabilities.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import struct
+import subprocess
+import sys
+from typing import Any, BinaryIO
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.contact.model import PegHole
+from fbcc_ros.core.contact.segmentation import FZ_MIN
+
+#: What the child is sent besides samples: a new insertion.
+_RESET = "reset"
+#: The child's scheduling: only on a core the control loop leaves idle (Linux's SCHED_IDLE;
+#: elsewhere the lowest niceness), since it answers late, not the loop. On this two-vCPU VM
+#: it still costs the loop: with it running, the cell's p99 latency (recorder on) was 2.7-4.5
+#: ms instead of 0.8-2.0 ms, at niceness 10 as at SCHED_IDLE (docs/nodes.md).
+LOWEST = ("os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))"
+          if hasattr(os, "SCHED_IDLE") else "os.nice(19)")  # fmt: skip
+#: How long closing waits for the child before it is killed [s].
+CLOSE_TIMEOUT = 2.0
+#: The pipes' size [bytes]: ~4000 samples, 20 s of them at 200 Hz, where the default 64 KiB
+#: held 1.3 s and a loaded machine's filter fell further behind than that in its first second
+#: (samples were dropped).
+PIPE_BYTES = 1 << 20
+#: A frame: its length, then a pickle.
+_LENGTH = struct.Struct("!I")
+
+
+def _frame(item: Any) -> bytes:
+    data = pickle.dumps(item, protocol=pickle.HIGHEST_PROTOCOL)
+    return _LENGTH.pack(len(data)) + data
+
+
+def _widen(fd: int) -> None:
+    """Make a pipe hold :data:`PIPE_BYTES` where the system allows (Linux's F_SETPIPE_SZ;
+    elsewhere, or above the system's limit, it keeps its size)."""
+    try:
+        import fcntl
+
+        fcntl.fcntl(fd, getattr(fcntl, "F_SETPIPE_SZ", 1031), PIPE_BYTES)
+    except (ImportError, OSError):
+        pass
+
+
+def _read_exactly(stream: BinaryIO, n: int) -> bytes | None:
+    data = b""
+    while len(data) < n:
+        chunk = stream.read(n - len(data))
+        if not chunk:
+            return None  # the parent closed the pipe
+        data += chunk
+    return data
+
+
+def serve(inbox: BinaryIO, outbox: BinaryIO) -> None:
+    """The child: the nominal pair first, then one filter per insertion and an answer per
+    sample, until its input closes."""
+    from fbcc_ros.core.control.deviation_filter import DeviationFilter
+
+    def receive() -> Any:
+        head = _read_exactly(inbox, _LENGTH.size)
+        body = None if head is None else _read_exactly(inbox, _LENGTH.unpack(head)[0])
+        return None if body is None else pickle.loads(body)
+
+    def send(item: Any) -> None:
+        outbox.write(_frame(item))
+        outbox.flush()
+
+    nominal = receive()
+    if nominal is None:
+        return
+    # compile (or load) the filter's kernels before the first sample comes
+    DeviationFilter(nominal, particles=100, converged_particles=100).update(
+        np.zeros(5), np.zeros(5))  # fmt: skip
+    send(_RESET)  # ready
+    filt = DeviationFilter(nominal)
+    while (item := receive()) is not None:
+        if item == _RESET:
+            filt = DeviationFilter(nominal)
+            continue
+        insertion, stamp, features, response = item
+        send((insertion, stamp, filt.update(response, features)))
+
+
+class StateFeed:
+    """Which control periods the filter is handed: every ``every``-th from the first in contact
+    or in the hole of an insertion, as :func:`~fbcc_ros.core.control.deviation_filter.along`
+    takes them."""
+
+    def __init__(self, every: int) -> None:
+        self.every = max(1, int(every))
+        self.start_insertion()
+
+    def start_insertion(self) -> None:
+        self._touched = False
+        self._periods = 0
+        #: samples handed over this insertion
+        self.sent = 0
+
+    def take(self, features: ArrayLike, response: ArrayLike) -> bool:
+        """Whether this period's sample (features and response, both (5,)) goes to the filter."""
+        if not self._touched:
+            f, w = np.asarray(features, dtype=float), np.asarray(response, dtype=float)
+            if not (w[2] > FZ_MIN or f[2] > 0):
+                return False
+            self._touched = True
+        take = self._periods % self.every == 0
+        self._periods += 1
+        self.sent += int(take)
+        return take
+
+
+class StateWorker:
+    """The deviation filter in a child process (module doc).
+
+    Args:
+        nominal: The controller's nominal pair.
+    """
+
+    def __init__(self, nominal: PegHole) -> None:
+        # niceness before anything is imported: the child's start-up yields to the loop too
+        # the answers go on a copy of stdout; stdout itself goes to stderr, so that nothing
+        # printed in the child can break a frame
+        code = (f"import os; {LOWEST}; answers = os.fdopen(os.dup(1), 'wb'); "
+                "os.dup2(2, 1); import sys; from fbcc_ros.pipeline.state_worker import serve; "
+                "serve(sys.stdin.buffer, answers)")  # fmt: skip
+        self._process = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE,
+                                         stdout=subprocess.PIPE, close_fds=True)  # fmt: skip
+        assert self._process.stdin is not None and self._process.stdout is not None
+        self._in, self._out = self._process.stdin.fileno(), self._process.stdout.fileno()
+        for fd in (self._in, self._out):  # room for the backlog of the 4000-particle phase
+            _widen(fd)
+        os.write(self._in, _frame(nominal))  # before the pipe is made non-blocking: whole
+        os.set_blocking(self._in, False)
+        os.set_blocking(self._out, False)
+        self._buffer = b""
+        self.ready = False  # the child has loaded the filter
+        self._insertion = 0
+        self._reset = False  # a new insertion's reset still to be written
+        #: samples handed over, answers taken, and samples dropped (the pipe full), this
+        #: insertion
+        self.sent = 0
+        self.answered = 0
+        self.dropped = 0
+
+    @property
+    def behind(self) -> int:
+        """Samples handed over that have no answer yet."""
+        return self.sent - self.answered
+
+    def _write(self, item: Any) -> bool:
+        """One frame, whole or not at all (non-blocking; a frame under PIPE_BUF is atomic)."""
+        try:
+            return os.write(self._in, _frame(item)) > 0
+        except (BlockingIOError, BrokenPipeError):
+            return False
+
+    def start_insertion(self) -> None:
+        """A new insertion: a new filter (its samples wait for the reset to be written)."""
+        self._insertion += 1
+        self.sent = self.answered = self.dropped = 0
+        self._reset = not self._write(_RESET)
+
+    def put(self, stamp: float, features: FloatArray, response: FloatArray) -> None:
+        """Hand the filter one sample: measured features and response, both (5,)."""
+        item = (self._insertion, stamp, np.array(features, dtype=float),
+                np.array(response, dtype=float))  # fmt: skip
+        if self._reset:
+            self._reset = not self._write(_RESET)
+        if not self._reset and self._write(item):
+            self.sent += 1
+        else:
+            self.dropped += 1
+
+    def answers(self, most: int = 1 << 30) -> list[tuple[float, FloatArray]]:
+        """At most ``most`` of the answers come since the last call, oldest first, without
+        waiting: (the sample's stamp, P(state) per plane (2, 9))."""
+        while True:
+            try:
+                chunk = os.read(self._out, 1 << 16)
+            except BlockingIOError:
+                break
+            if not chunk:
+                break
+            self._buffer += chunk
+        out: list[tuple[float, FloatArray]] = []
+        while len(out) < most and len(self._buffer) >= _LENGTH.size:
+            (n,) = _LENGTH.unpack_from(self._buffer)
+            if len(self._buffer) < _LENGTH.size + n:
+                break
+            item = pickle.loads(self._buffer[_LENGTH.size:_LENGTH.size + n])
+            self._buffer = self._buffer[_LENGTH.size + n:]
+            if isinstance(item, str):  # the child is ready
+                self.ready = True
+            elif item[0] == self._insertion:  # an earlier insertion's late answer is dropped
+                self.answered += 1
+                out.append(item[1:])
+        return out
+
+    @property
+    def alive(self) -> bool:
+        return self._process.poll() is None
+
+    def close(self) -> None:
+        """Stop the child: its input closed, it ends (killed if not within CLOSE_TIMEOUT)."""
+        assert self._process.stdin is not None and self._process.stdout is not None
+        try:
+            self._process.stdin.close()
+        except OSError:
+            pass
+        try:
+            self._process.wait(CLOSE_TIMEOUT)
+        except subprocess.TimeoutExpired:
+            self._process.kill()
+            self._process.wait(CLOSE_TIMEOUT)
+        self._process.stdout.close()

@@ -1,0 +1,90 @@
+"""The contact state online (fbcc_ros.pipeline.state_worker): the filter in its child process
+answers every sample it is handed with what the deviation filter along the same insertion
+gives offline, starts again on a new insertion, and stops when closed."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from fbcc_ros.core.control.deviation_filter import along
+from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim.simulation import simulate
+from fbcc_ros.pipeline.state_worker import StateFeed, StateWorker
+
+EVERY = 5
+
+
+@pytest.fixture(scope="module")
+def insertion() -> tuple[object, np.ndarray, np.ndarray]:
+    """The first 0.4 s of a robust interference insertion: measured features and responses."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_interference.yaml"))
+    _, traj = simulate(sc, "fbcc", seed=0)
+    assert traj is not None
+    return sc.geometry, traj.pose[:400, 0].copy(), traj.measured[:400, 0].copy()
+
+
+def _drain(worker: StateWorker, expected: int, timeout: float = 60.0) -> list:
+    got: list = []
+    end = time.monotonic() + timeout
+    while len(got) < expected and time.monotonic() < end:
+        got += worker.answers()
+        time.sleep(0.01)
+    return got
+
+
+def test_the_worker_answers_as_the_filter_along_the_insertion(insertion) -> None:
+    nominal, features, responses = insertion
+    rows, expected = along(features, responses, nominal, EVERY)
+    assert len(rows) > 20
+    worker, feed = StateWorker(nominal), StateFeed(EVERY)
+
+    def insert() -> None:
+        worker.start_insertion()
+        feed.start_insertion()
+        for k in range(len(features)):
+            if feed.take(features[k], responses[k]):
+                worker.put(float(k), features[k], responses[k])
+
+    try:
+        insert()
+        assert worker.sent == feed.sent == len(rows)
+        got = _drain(worker, len(rows))
+        assert [stamp for stamp, _ in got] == [float(k) for k in rows]
+        np.testing.assert_array_equal(np.array([p for _, p in got]), expected)
+        assert worker.behind == 0 and worker.ready
+        # a new insertion starts a new filter: the same samples give the same answers
+        insert()
+        again = _drain(worker, len(rows))
+        np.testing.assert_array_equal(np.array([p for _, p in again]), expected)
+    finally:
+        worker.close()
+    assert not worker.alive
+
+
+def test_the_feed_starts_at_the_first_contact_and_takes_every_nth_period() -> None:
+    feed = StateFeed(3)
+    above = np.array([0.0, 0.0, -1e-3, 0.0, 0.0])
+    assert not any(feed.take(above, np.zeros(5)) for _ in range(10))  # free, above the hole
+    touching = np.array([0.0, 0.0, 5.0, 0.0, 0.0])  # Fz: on the top face
+    taken = [feed.take(above, touching)] + [feed.take(above, np.zeros(5)) for _ in range(6)]
+    assert taken == [True, False, False, True, False, False, True]
+    feed.start_insertion()  # a new insertion waits for its own first contact
+    assert not feed.take(above, np.zeros(5)) and feed.sent == 0
+
+
+def test_a_dead_child_drops_the_samples_and_never_blocks_the_loop(insertion) -> None:
+    nominal, features, responses = insertion
+    worker = StateWorker(nominal)
+    try:
+        worker._process.kill()
+        worker._process.wait()
+        worker.start_insertion()
+        for k in range(2000):  # far more than a pipe holds
+            worker.put(float(k), features[k % 400], responses[k % 400])
+        assert worker.sent == 0 and worker.dropped == 2000
+        assert worker.answers() == [] and not worker.alive
+    finally:
+        worker.close()
