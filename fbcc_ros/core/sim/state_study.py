@@ -30,7 +30,7 @@ from fbcc_ros.core.contact.model import ContactBatch, PegHole
 from fbcc_ros.core.contact.segmentation import STATES, feature_state, response_state
 from fbcc_ros.core.control.contact_state import ContactStateEstimator, most_probable
 from fbcc_ros.core.control.contact_uncertainty import draw_in_state
-from fbcc_ros.core.control.deviation_filter import DeviationFilter
+from fbcc_ros.core.control.deviation_filter import along
 from fbcc_ros.core.sim.scenario import Scenario
 from fbcc_ros.core.sim.simulation import simulate
 
@@ -126,8 +126,9 @@ def trajectory_study(sc: Scenario, estimator: ContactStateEstimator, stiffness: 
                      progress: Callable[[int, int], None] | None = None,
                      ) -> tuple[dict[str, Tally], float]:  # fmt: skip
     """Each method along ``trials`` simulated insertions of parts of ``stiffness`` [Pa]
-    (module doc), at every ``stride``-th sample in the hole; the deviation filter updates at
-    every ``stride``-th sample from the first touch. Returns the tallies and the share of
+    (module doc), at the samples the deviation filter updates at
+    (:func:`~fbcc_ros.core.control.deviation_filter.along`: every ``stride``-th from the first
+    measured contact) that are in the hole. Returns the tallies and the share of
     insertions that succeeded; ``progress(done, trials)`` after each insertion."""
     unc = estimator.uncertainty
     rng = np.random.default_rng(seed)
@@ -145,12 +146,13 @@ def trajectory_study(sc: Scenario, estimator: ContactStateEstimator, stiffness: 
     tallies = {name: Tally() for name in ("boundary mapping", "estimator, one response",
                                           "estimator, history")}  # fmt: skip
     for i in range(trials):
-        history = DeviationFilter(sc.geometry, unc, particles=particles, seed=seed + i)
-        x, w, pose = traj.features[::stride, i], traj.measured[::stride, i], traj.pose[::stride, i]
-        touched = np.flatnonzero((x[:, 2] > 0) | (pose[:, 2] > 0))
-        inside = x[:, 2] > 0
-        named = [history.update(w[k], pose[k]) for k in touched]
-        scored = touched[inside[touched]]
+        x, w, pose = traj.features[:, i], traj.measured[:, i], traj.pose[:, i]
+        # the filter as the controller and the report run it: every stride-th sample from the
+        # first measured contact
+        rows, named = along(pose, w, sc.geometry, stride, uncertainty=unc, particles=particles,
+                            seed=seed + i)  # fmt: skip
+        inside = x[rows, 2] > 0  # scored in the hole, where a true state is named
+        scored = rows[inside]
         truth = np.array([feature_state(x[k], parts[i]) for k in scored], dtype=object)
         depth = np.maximum(pose[scored, 2], 0.0)  # what the robot measures
         ws = w[scored]
@@ -158,8 +160,7 @@ def trajectory_study(sc: Scenario, estimator: ContactStateEstimator, stiffness: 
                                                                               sc.geometry)))
         tallies["estimator, one response"].add(truth, *most_probable(
             estimator.probabilities(ws, depth)))
-        tallies["estimator, history"].add(truth, *most_probable(
-            np.array(named)[inside[touched]]))
+        tallies["estimator, history"].add(truth, *most_probable(named[inside]))
         if progress is not None:
             progress(i + 1, trials)
     return tallies, float(outcome.success.mean())
