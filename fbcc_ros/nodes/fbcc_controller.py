@@ -79,6 +79,7 @@ class FbccControllerNode(Node):
         self.create_timer(0.01, self.on_watchdog)
         self._phase_said = ""
         self._state_said = ""
+        self._state_filter_gone = False
         self._warned: set[str] = set()
         self._publish_phase()
         publish_diagnostics(self, self._report)
@@ -176,6 +177,11 @@ class FbccControllerNode(Node):
         # loop for milliseconds
         for row in self.stage.state_estimates(STATES_PER_TICK):
             self.pub_states.publish(encode_array(row, STATE_LAYOUT))
+        worker = self.stage.state_worker
+        if worker is not None and not worker.alive and not self._state_filter_gone:
+            self._state_filter_gone = True  # said once; the loop goes on without it
+            self.get_logger().error(f"contact-state filter ended (exit status "
+                                    f"{worker.exit_code}): fbcc/contact_state_estimate stops")
 
     def destroy_node(self) -> None:
         self.stage.close()

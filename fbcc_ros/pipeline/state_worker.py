@@ -228,13 +228,20 @@ class StateWorker:
     def alive(self) -> bool:
         return self._process.poll() is None
 
+    @property
+    def exit_code(self) -> int | None:
+        """The child's exit status once it has ended (None while it runs)."""
+        return self._process.poll()
+
     def close(self) -> None:
-        """Stop the child: its input closed, it ends (killed if not within CLOSE_TIMEOUT)."""
+        """Stop the child now, its backlog unanswered (killed if it does not end within
+        CLOSE_TIMEOUT)."""
         assert self._process.stdin is not None and self._process.stdout is not None
         try:
             self._process.stdin.close()
         except OSError:
             pass
+        self._process.terminate()
         try:
             self._process.wait(CLOSE_TIMEOUT)
         except subprocess.TimeoutExpired:

@@ -66,3 +66,38 @@ def test_the_controllers_contact_states_are_the_filters_along_the_recorded_sessi
     np.testing.assert_array_equal(np.sort(rows[:, 0]) - s.t0, online["t"])
     np.testing.assert_array_equal(online["t"], offline["t"][:n])
     np.testing.assert_allclose(online["p"], offline["p"][:n], rtol=0, atol=1e-12)
+
+
+def test_the_filter_starts_for_a_listener_and_its_end_is_said_once(tmp_path: Path) -> None:
+    """No listener, no process; a listener starts it; a filter that dies is said once and the
+    node goes on."""
+    import rclpy
+    from std_msgs.msg import Float64MultiArray
+
+    from fbcc_ros.nodes.fbcc_controller import FbccControllerNode
+    from fbcc_ros.ros import topics
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        node = FbccControllerNode(context=context)
+        node.on_watchdog()
+        assert node.stage.state_worker is None  # nobody listens
+        node.create_subscription(Float64MultiArray, topics.CONTACT_STATE_ESTIMATE,
+                                 lambda _: None, 10)  # fmt: skip
+        end = time.monotonic() + 10.0
+        while node.stage.state_worker is None and time.monotonic() < end:
+            node.on_watchdog()
+            time.sleep(0.01)
+        worker = node.stage.state_worker
+        assert worker is not None and worker.alive
+        worker._process.kill()
+        worker._process.wait()
+        for _ in range(3):
+            node.on_watchdog()
+        assert node._state_filter_gone and worker.exit_code is not None
+        assert node.sup.phase == "idle"  # the controller is not disturbed
+        node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)
+        context.destroy()
