@@ -28,6 +28,16 @@ did, each within 0.03 µm and 0.01 mrad). When the effective sample size falls
 under half, the particles are resampled with Liu and West's shrunk kernel (``a`` = 0.98), which
 keeps the cloud's mean and spread; once the cloud has converged, with fewer of them.
 
+A cloud can collapse where the responses no longer say which: a one-sided contact fixes the
+offset less the gap, not each, and a peg that then rests in the clearance is pressing nowhere.
+When every particle contradicts the measurement, contact where there is none or none where
+there is (after the annealing), the weights cannot say where the cloud should be: it is
+spread out by :data:`SPREAD_OUT` and weighed afresh, the contradiction's own sample skipped (as
+a robot's localisation adds particles when all of them explain its scans badly). On the state
+study's clearance insertions (8 per stiffness and placement) this moved the share named right
+from 0.58–0.86 to 0.59–0.88 and what it states above 0.99 from 58–91 % right to 65–92 %;
+interference never triggered it.
+
 The state per plane is the particles' weighted vote of
 :func:`~fbcc_ros.core.contact.segmentation.feature_state` at their true features, each particle
 with its own gap (the clearance's no-contact region).
@@ -64,6 +74,10 @@ SHRINK = 0.98
 #: ``converged_particles`` carry it (measured on 8 interference insertions: 0.946 of the states
 #: right with 500 after convergence, as with 4000 throughout, in 1.4 s of CPU instead of 4.8).
 CONVERGED = (2e-6, 2e-4)
+#: How far a cloud that every particle of it contradicts is spread out (dx, dy, θx, θy, μ, g):
+#: a standard deviation of the size at which a cloud counts as converged (:data:`CONVERGED`),
+#: a tenth of the friction's nominal spread, and 2 µm of gap.
+SPREAD_OUT = (CONVERGED[0], CONVERGED[0], CONVERGED[1], CONVERGED[1], 0.03, 2e-6)
 #: Floors of the resampling kernel's covariance (dx, dy, θx, θy, μ, g), so a collapsed cloud
 #: still moves: 0.1 µm, 0.01 mrad, 0.001 in μ, 0.03 µm.
 JITTER_FLOOR = (1e-7, 1e-7, 1e-5, 1e-5, 1e-3, 3e-8)
@@ -106,6 +120,8 @@ class DeviationFilter:
         ])  # fmt: skip
         self._logw = np.zeros(n)
         self.updates = 0
+        #: how often a contradicted cloud was spread out
+        self.spread_outs = 0
         self._table = np.tile(np.array([[nominal.hole_radius], [nominal.peg_radius],
                                         [nominal.friction], [nominal.stiffness],
                                         [nominal.hole_depth], [nominal.base_thickness],
@@ -151,7 +167,14 @@ class DeviationFilter:
             touching)
         self.updates += 1
         scale = min(1.0, self.updates / self.anneal) if self.anneal else 1.0
-        self._logw += scale * self._log_likelihood(w[0], depth, predicted, touching[:, 2])
+        ll = self._log_likelihood(w[0], depth, predicted, touching[:, 2])
+        if ll.max() <= CONTACT_MISMATCH and self.updates > self.anneal:
+            # every particle says contact where there is none (or none where there is): the
+            # cloud is wrong, and its weights cannot say where; it is spread out again
+            self._spread_out()
+            x = self.true_features(features)
+        else:
+            self._logw += scale * ll
         self._logw -= self._logw.max()
         probabilities = self.states(x)
         weights = self.weights
@@ -185,6 +208,13 @@ class DeviationFilter:
             index = plane_state_index(d, t, x[:, 2], hole, self.nominal.peg_radius)
             np.add.at(out[plane], index, weights)
         return out
+
+    def _spread_out(self) -> None:
+        """Every particle moved by a draw of SPREAD_OUT, the weights made equal (module doc)."""
+        self._theta += self._rng.normal(0.0, SPREAD_OUT, self._theta.shape)
+        self._theta[:, 4] = np.clip(self._theta[:, 4], 0.01, None)  # μ stays positive
+        self._logw = np.zeros(len(self._theta))
+        self.spread_outs += 1
 
     def _resample(self, weights: FloatArray) -> None:
         n = len(weights)

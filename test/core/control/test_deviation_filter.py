@@ -11,7 +11,7 @@ import pytest
 from fbcc_ros.core.contact.segmentation import STATES, feature_state
 from fbcc_ros.core.control.contact_state import most_probable
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
-from fbcc_ros.core.control.deviation_filter import DeviationFilter
+from fbcc_ros.core.control.deviation_filter import SPREAD_OUT, DeviationFilter
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import simulate
@@ -64,6 +64,31 @@ def test_before_any_contact_the_state_is_open() -> None:
     p = f.update(np.zeros(5), np.array([0.0, 0.0, 1e-3, 0.0, 0.0]))
     assert p.shape == (2, len(STATES)) and np.allclose(p.sum(axis=1), 1.0)
     assert (p.max(axis=1) < 0.99).all()
+
+
+def test_a_cloud_every_particle_of_which_is_contradicted_is_spread_out() -> None:
+    """A clearance cloud collapsed on a contact (every particle has the peg against the wall)
+    while the sensor reads nothing: the weights alone cannot move it; it is spread out, and
+    then the particles that leave the wall carry the state."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
+    nominal = sc.geometry.replace(stiffness=1e10)  # a steel pair: 1 µm presses
+    f = DeviationFilter(nominal, particles=500, anneal=0, seed=3)
+    gap = nominal.hole_radius - nominal.peg_radius
+    theta = np.zeros((500, 6))
+    theta[:, 0] = gap + 1e-6  # each particle: the hole 1 µm past the wall, along x
+    theta[:, 4] = nominal.friction
+    f._theta = theta.copy()
+    features = np.array([0.0, 0.0, 3e-3, 0.0, 0.0])
+    pressing = f.true_features(features)
+    assert (np.abs(pressing[:, 0]) > gap).all()  # all in contact
+    f.update(np.zeros(5), features)  # the sensor: no contact
+    assert f.spread_outs == 1
+    spread = f._theta - theta
+    assert np.allclose(spread.std(axis=0)[:4], SPREAD_OUT[:4], rtol=0.2)
+    assert np.allclose(f.weights, 1.0 / 500)  # weighed afresh
+    for _ in range(5):  # the particles that rest in the clearance are favoured
+        p = f.update(np.zeros(5), features)
+    assert f.spread_outs == 1 and p[0, STATES.index("P0")] > 0.5
 
 
 @pytest.mark.parametrize(("kwargs", "match"), [
