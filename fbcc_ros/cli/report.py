@@ -206,6 +206,13 @@ def markdown(summary: dict[str, Any]) -> str:
     lines += [f"- `{t}`: {n}" for t, n in summary["messages"].items()]
     lines += ["", "![trajectories](trajectories.png)", "![planes](planes.png)",
               "![states](states.png)", ""]  # fmt: skip
+    if "contact_state_estimate" in summary:
+        states = summary["contact_state_estimate"]
+        lines.append(f"Contact state by the {states['source']}: {states['updates']} updates.")
+        for method, planes in (states["agreement_with_truth"] or {}).items():
+            lines.append(f"- {method}: the mock's true state "
+                         + ", ".join(f"{k} {v:.0%}" for k, v in planes.items()))
+        lines += ["", "![contact states](contact_states.png)", ""]
     if "contact_estimate" in summary:
         est = summary["contact_estimate"]
         lines += ["Last contact identification (robust law): "

@@ -57,6 +57,10 @@ def test_the_report_of_a_recorded_session(tmp_path: Path, capsys) -> None:
     agree = states["agreement_with_truth"]
     for plane in ("XOZ", "YOZ"):
         assert agree["deviation filter"][plane] > agree["boundary mapping"][plane] + 0.1, agree
+    assert states["source"] == "deviation filter, run by the report"  # the bag has none of its own
+    assert "![contact states](contact_states.png)" in text
+    said = f"deviation filter: the mock's true state XOZ {agree['deviation filter']['XOZ']:.0%}"
+    assert said in text
 
 
 def test_a_cut_bag_is_reported_as_truncated(tmp_path: Path, capfd) -> None:
