@@ -365,13 +365,14 @@ def main(argv: list[str] | None = None) -> int:
               f"<= {COMPENSATION_BUDGET_US:.0f}", COMPENSATION_BUDGET_US / us)  # fmt: skip
         _line(f"  same, p99 [µs] ({name})", f"{p99:.1f}", f"<= {COMPENSATION_BUDGET_US:.0f}",
               COMPENSATION_BUDGET_US / p99)  # fmt: skip
-    (p50, p99), (mean, update_p99) = bench_contact_state(
+    (p50, p99), (mean, update_p99), (loop_us, loop_p99) = bench_contact_state(
         *assembly, 500 if args.short else 4000).values()
     _line("contact state, one response [µs a sample]", f"{p50:.1f}",
           f"<= {STATE_BUDGET_US:.0f}", STATE_BUDGET_US / p50)  # fmt: skip
     _line("contact state, deviation filter [µs a sample]", f"{mean:.1f}",
           f"<= {STATE_BUDGET_US:.0f}", STATE_BUDGET_US / mean)  # fmt: skip
     print(f"{'  one update, p99 [µs]':46s} {update_p99:12.1f}")
+    print(f"{'  online, the loop pays [µs a sample] (p99)':46s} {loop_us:12.1f} ({loop_p99:.1f})")
     if not args.no_ros:
         full = not args.short
         bench_loop(4.0 if full else 1.5, full, 5 if full else 1, sweep=full)
