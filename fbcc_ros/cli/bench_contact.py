@@ -63,7 +63,8 @@ def _online(sc: Scenario, measured: np.ndarray, pose: np.ndarray) -> tuple[float
     """What the controller's loop pays for the online filter per 1 kHz sample [µs]: the feed's
     choice and the write to the filter's process (:mod:`fbcc_ros.pipeline.state_worker`),
     (mean, p99); the filter's own work is in its process."""
-    from fbcc_ros.pipeline.state_worker import StateFeed, StateWorker
+    from fbcc_ros.core.control.deviation_filter import StateFeed
+    from fbcc_ros.pipeline.state_worker import StateWorker
 
     worker, feed = StateWorker(sc.geometry), StateFeed(FILTER_EVERY)
     try:

@@ -173,8 +173,8 @@ class FbccControllerNode(Node):
             if self.stage.start_state_worker():
                 self.get_logger().info("contact-state filter started (fbcc/contact_state_estimate"
                                        " is heard)")  # fmt: skip
-        # a few a tick: a burst of answers (the filter catching up) published at once held the
-        # loop for milliseconds
+        # a few a tick: a burst of answers (the filter catching up) is not published in one
+        # callback of the loop's executor
         for row in self.stage.state_estimates(STATES_PER_TICK):
             self.pub_states.publish(encode_array(row, STATE_LAYOUT))
         worker = self.stage.state_worker

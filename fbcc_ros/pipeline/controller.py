@@ -21,6 +21,7 @@ from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.compensation.wrench import response_from_wrench
 from fbcc_ros.core.contact.features import features_from_pose, pose_from_features
 from fbcc_ros.core.contact.segmentation import response_state
+from fbcc_ros.core.control.deviation_filter import StateFeed
 from fbcc_ros.core.control.laws import make_law
 from fbcc_ros.core.control.phase import WAITING
 from fbcc_ros.core.control.robust import RobustFbcc
@@ -30,7 +31,7 @@ from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.pipeline.lateral_watch import LateralWatch
 from fbcc_ros.pipeline.parameters import HOLE_FRAME, Param
 from fbcc_ros.pipeline.rate import InputRate
-from fbcc_ros.pipeline.state_worker import StateFeed, StateWorker
+from fbcc_ros.pipeline.state_worker import StateWorker
 
 _LIMITS = SafetyLimits()
 TABLE = (
@@ -101,7 +102,8 @@ class ControllerStage:
         self.lateral = LateralWatch()
         #: the periods the contact-state filter is handed (None: no filter), and its process
         state_rate = values["state_rate_hz"]
-        self.state_feed = StateFeed(round(rate / state_rate)) if state_rate > 0 else None
+        every = max(1, round(rate / state_rate)) if state_rate > 0 else 0  # at most the rate
+        self.state_feed = StateFeed(every) if every else None
         self.state_worker: StateWorker | None = None
         self._was_active = False
 

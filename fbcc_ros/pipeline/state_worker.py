@@ -13,8 +13,8 @@ child answers every sample, in order, with P(state) per plane. Until the cloud h
 (the first ~0.6–0.8 s of contact, 4000 particles) it updates slower than 200 Hz and falls
 behind; once 500 particles carry the cloud it updates 7× faster than real time and catches up.
 
-:class:`StateFeed` picks the samples it gets as
-:func:`~fbcc_ros.core.control.deviation_filter.along` takes them from the same insertion: every
+:class:`~fbcc_ros.core.control.deviation_filter.StateFeed` picks the samples it gets, as
+:func:`~fbcc_ros.core.control.deviation_filter.along` picks them from the same insertion: every
 ``every``-th period from the first one in contact or in the hole after the start. The filter is
 seeded, so both give the same probabilities.
 """
@@ -29,11 +29,9 @@ import sys
 from typing import Any, BinaryIO
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import PegHole
-from fbcc_ros.core.contact.segmentation import FZ_MIN
 
 #: What the child is sent besides samples: a new insertion.
 _RESET = "reset"
@@ -109,34 +107,6 @@ def serve(inbox: BinaryIO, outbox: BinaryIO) -> None:
         send((insertion, stamp, filt.update(response, features)))
 
 
-class StateFeed:
-    """Which control periods the filter is handed: every ``every``-th from the first in contact
-    or in the hole of an insertion, as :func:`~fbcc_ros.core.control.deviation_filter.along`
-    takes them."""
-
-    def __init__(self, every: int) -> None:
-        self.every = max(1, int(every))
-        self.start_insertion()
-
-    def start_insertion(self) -> None:
-        self._touched = False
-        self._periods = 0
-        #: samples handed over this insertion
-        self.sent = 0
-
-    def take(self, features: ArrayLike, response: ArrayLike) -> bool:
-        """Whether this period's sample (features and response, both (5,)) goes to the filter."""
-        if not self._touched:
-            f, w = np.asarray(features, dtype=float), np.asarray(response, dtype=float)
-            if not (w[2] > FZ_MIN or f[2] > 0):
-                return False
-            self._touched = True
-        take = self._periods % self.every == 0
-        self._periods += 1
-        self.sent += int(take)
-        return take
-
-
 class StateWorker:
     """The deviation filter in a child process (module doc).
 
@@ -145,9 +115,9 @@ class StateWorker:
     """
 
     def __init__(self, nominal: PegHole) -> None:
-        # niceness before anything is imported: the child's start-up yields to the loop too
-        # the answers go on a copy of stdout; stdout itself goes to stderr, so that nothing
-        # printed in the child can break a frame
+        # the lowest scheduling before anything is imported: the child's start-up yields to
+        # the loop too; the answers go on a copy of stdout, and stdout itself to stderr, so
+        # that nothing printed in the child can break a frame
         code = (f"import os; {LOWEST}; answers = os.fdopen(os.dup(1), 'wb'); "
                 "os.dup2(2, 1); import sys; from fbcc_ros.pipeline.state_worker import serve; "
                 "serve(sys.stdin.buffer, answers)")  # fmt: skip

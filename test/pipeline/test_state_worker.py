@@ -9,10 +9,10 @@ import time
 import numpy as np
 import pytest
 
-from fbcc_ros.core.control.deviation_filter import along
+from fbcc_ros.core.control.deviation_filter import StateFeed, along
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import simulate
-from fbcc_ros.pipeline.state_worker import StateFeed, StateWorker
+from fbcc_ros.pipeline.state_worker import StateWorker
 
 EVERY = 5
 
@@ -62,17 +62,6 @@ def test_the_worker_answers_as_the_filter_along_the_insertion(insertion) -> None
     finally:
         worker.close()
     assert not worker.alive
-
-
-def test_the_feed_starts_at_the_first_contact_and_takes_every_nth_period() -> None:
-    feed = StateFeed(3)
-    above = np.array([0.0, 0.0, -1e-3, 0.0, 0.0])
-    assert not any(feed.take(above, np.zeros(5)) for _ in range(10))  # free, above the hole
-    touching = np.array([0.0, 0.0, 5.0, 0.0, 0.0])  # Fz: on the top face
-    taken = [feed.take(above, touching)] + [feed.take(above, np.zeros(5)) for _ in range(6)]
-    assert taken == [True, False, False, True, False, False, True]
-    feed.start_insertion()  # a new insertion waits for its own first contact
-    assert not feed.take(above, np.zeros(5)) and feed.sent == 0
 
 
 def test_a_dead_child_drops_the_samples_and_never_blocks_the_loop(insertion) -> None:

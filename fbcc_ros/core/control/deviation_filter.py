@@ -68,6 +68,8 @@ U_FLOOR = 0.05
 SIGMA_FLOOR = 0.02
 #: Log-likelihood of a particle that predicts contact where there is none, or none where there is.
 CONTACT_MISMATCH = -30.0
+#: The least μ a particle may carry once moved (a kernel or a spread could make it negative).
+MU_MIN = 0.01
 #: Liu and West's shrinkage: the kernel keeps the cloud's mean and spread.
 SHRINK = 0.98
 #: A cloud is converged when its spread is under these in offset [m] and tilt [rad]: then
@@ -212,7 +214,7 @@ class DeviationFilter:
     def _spread_out(self) -> None:
         """Every particle moved by a draw of SPREAD_OUT, the weights made equal (module doc)."""
         self._theta += self._rng.normal(0.0, SPREAD_OUT, self._theta.shape)
-        self._theta[:, 4] = np.clip(self._theta[:, 4], 0.01, None)  # μ stays positive
+        self._keep_friction_positive()
         self._logw = np.zeros(len(self._theta))
         self.spread_outs += 1
 
@@ -227,20 +229,54 @@ class DeviationFilter:
         cov = np.cov(self._theta.T, aweights=weights) + np.diag(np.square(JITTER_FLOOR))
         kernel = self._rng.multivariate_normal(np.zeros(6), (1 - SHRINK**2) * cov, n)
         self._theta = SHRINK * self._theta[index] + (1 - SHRINK) * mean + kernel
-        self._theta[:, 4] = np.clip(self._theta[:, 4], 0.01, None)  # μ stays positive
+        self._keep_friction_positive()
         self._logw = np.zeros(n)
+
+    def _keep_friction_positive(self) -> None:
+        """A moved particle's μ is at least MU_MIN."""
+        np.clip(self._theta[:, 4], MU_MIN, None, out=self._theta[:, 4])
+
+
+class StateFeed:
+    """Which samples of an insertion the filter is handed: every ``every``-th from the first in
+    contact (Fz over :data:`~fbcc_ros.core.contact.segmentation.FZ_MIN`) or in the hole, by
+    :func:`along` offline and by the controller online
+    (:mod:`fbcc_ros.pipeline.state_worker`), so that both hand it the same."""
+
+    def __init__(self, every: int) -> None:
+        if every < 1:
+            raise ConfigError("every", every, "a row count >= 1")
+        self.every = int(every)
+        self.start_insertion()
+
+    def start_insertion(self) -> None:
+        self._touched = False
+        self._periods = 0
+        #: samples handed over this insertion
+        self.sent = 0
+
+    def take(self, features: ArrayLike, response: ArrayLike) -> bool:
+        """Whether this sample (features and response, both (5,)) goes to the filter."""
+        if not self._touched:
+            f, w = np.asarray(features, dtype=float), np.asarray(response, dtype=float)
+            if not (w[2] > FZ_MIN or f[2] > 0):
+                return False
+            self._touched = True
+        take = self._periods % self.every == 0
+        self._periods += 1
+        self.sent += int(take)
+        return take
 
 
 def along(features: FloatArray, responses: FloatArray, nominal: PegHole, every: int = 1,
           **options: Any) -> tuple[np.ndarray, FloatArray]:  # fmt: skip
     """The filter along one recorded insertion: measured features and compensated responses,
-    both (T, 5); updated at every ``every``-th row from the first in contact or in the hole.
-    Returns the rows it updated at and P(state) there, shape (K, 2, 9). ``options`` go to
-    :class:`DeviationFilter`."""
-    if every < 1:
-        raise ConfigError("every", every, "a row count >= 1")
-    started = np.flatnonzero((responses[:, 2] > FZ_MIN) | (features[:, 2] > 0))
-    rows = np.arange(started[0], len(features), every) if len(started) else np.zeros(0, int)
+    both (T, 5); updated at the rows :class:`StateFeed` takes (every ``every``-th from the first
+    in contact or in the hole). Returns the rows it updated at and P(state) there, shape
+    (K, 2, 9). ``options`` go to :class:`DeviationFilter`."""
+    feed = StateFeed(every)
+    rows = np.array([k for k in range(len(features)) if feed.take(features[k], responses[k])],
+                    dtype=int)  # fmt: skip
     f = DeviationFilter(nominal, **options)
     return rows, np.array([f.update(responses[k], features[k]) for k in rows]).reshape(-1, 2,
                                                                                      len(STATES))

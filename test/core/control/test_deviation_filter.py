@@ -11,7 +11,7 @@ import pytest
 from fbcc_ros.core.contact.segmentation import STATES, feature_state
 from fbcc_ros.core.control.contact_state import most_probable
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
-from fbcc_ros.core.control.deviation_filter import SPREAD_OUT, DeviationFilter
+from fbcc_ros.core.control.deviation_filter import SPREAD_OUT, DeviationFilter, StateFeed
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import simulate
@@ -99,3 +99,14 @@ def test_bad_settings_are_refused(kwargs: dict, match: str) -> None:
     sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
     with pytest.raises(ConfigError, match=match):
         DeviationFilter(sc.geometry, **kwargs)
+
+
+def test_the_feed_starts_at_the_first_contact_and_takes_every_nth_period() -> None:
+    feed = StateFeed(3)
+    above = np.array([0.0, 0.0, -1e-3, 0.0, 0.0])
+    assert not any(feed.take(above, np.zeros(5)) for _ in range(10))  # free, above the hole
+    touching = np.array([0.0, 0.0, 5.0, 0.0, 0.0])  # Fz: on the top face
+    taken = [feed.take(above, touching)] + [feed.take(above, np.zeros(5)) for _ in range(6)]
+    assert taken == [True, False, False, True, False, False, True]
+    feed.start_insertion()  # a new insertion waits for its own first contact
+    assert not feed.take(above, np.zeros(5)) and feed.sent == 0
