@@ -125,6 +125,23 @@ def test_mapping_study_writes_its_tables(tmp_path: Path) -> None:
     assert (tmp_path / "mapping_study.png").stat().st_size > 1000
 
 
+def test_gate_study_writes_its_table_and_figure(tmp_path: Path) -> None:
+    """--gate: every case run four ways on one insertion each, read back from the JSON."""
+    import json
+
+    from fbcc_ros.cli import mapping_study
+
+    assert mapping_study.main(["--gate", "--out", str(tmp_path), "--trials", "1"]) == 0
+    results = json.loads((tmp_path / "gate_study.json").read_text())
+    cases = [k for k in results if k != "settings"]
+    assert len(cases) == 5  # clearance at three stiffnesses, interference at two
+    for case in cases:
+        assert [r["trials"] for r in results[case].values()] == [1, 1, 1, 1]
+    md = (tmp_path / "gate_study.md").read_text()
+    assert "| clearance, k 50 GPa | gated by the truth |" in md
+    assert (tmp_path / "gate_study.png").stat().st_size > 10000
+
+
 def test_state_study_writes_its_tables_and_confusion_matrices(tmp_path: Path) -> None:
     """--estimator: every method of every case scored, its confusion matrix counting each
     scored sample once (read back from the JSON)."""

@@ -11,6 +11,11 @@ With --estimator, instead: the paper's sector rule, boundary mapping and the con
 estimator on drawn responses and along simulated insertions (fbcc_ros.core.sim.state_study),
 with confusion matrices and the estimator's calibration:
   state_study.json, state_study.md, state_study.png
+
+With --gate, instead: whether the contact state helps the robust law
+(fbcc_ros.core.sim.gate_study): the same insertions by the law alone, gated by the deviation
+filter, gated by the true state, and with the tilts alone gated by it:
+  gate_study.json, gate_study.md, gate_study.png
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 from fbcc_ros.cli.common import out_dir
+from fbcc_ros.cli.gate_study import run_gate_study, write_gate_study
 from fbcc_ros.cli.state_study import run_state_study, write_state_study
 from fbcc_ros.core.contact.mapping_study import classify_study
 from fbcc_ros.core.contact.segmentation import STATES
@@ -137,8 +143,14 @@ def main(argv: list[str] | None = None) -> int:
                         default="both", help="with --estimator: the sensor placement(s) "
                         "(under the hole, at the wrist; default both)")
     parser.add_argument("--trials", type=int, default=8,
-                        help="with --estimator: insertions per fit and stiffness (default 8; "
-                             "about 4 s each)")
+                        help="with --estimator or --gate: insertions per fit and stiffness "
+                             "(default 8; about 4 s each)")
+    parser.add_argument("--gate", action="store_true",
+                        help="whether the contact state helps the law: the same insertions "
+                             "(--trials per fit and stiffness) alone and gated")
+    parser.add_argument("--confidence", type=float, default=0.9,
+                        help="with --gate: the probability from which a stated sign gates a "
+                             "row (default 0.9)")
     args = parser.parse_args(argv)
     if args.samples < 100:
         parser.error(f"--samples {args.samples}: expected at least 100")
@@ -146,7 +158,14 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--seed {args.seed}: expected an integer >= 0")
     if args.trials < 1:
         parser.error(f"--trials {args.trials}: expected an integer >= 1")
+    if args.estimator and args.gate:
+        parser.error("--estimator and --gate: choose one study")
+    if not 0.5 < args.confidence <= 1.0:
+        parser.error(f"--confidence {args.confidence}: expected a probability in (0.5, 1]")
     out = out_dir(parser, args.out)
+    if args.gate:
+        write_gate_study(run_gate_study(args.trials, args.seed, args.confidence), out)
+        return 0
     if args.estimator:
         placements = ("hole_bottom", "peg_top") if args.placement == "both" else (args.placement,)
         write_state_study(run_state_study(args.samples, args.trials, args.seed, placements), out)

@@ -48,6 +48,12 @@ CASES: dict[str, tuple[Callable[..., int], Callable[[dict[str, str]], list[str]]
     "state study, no insertions": (
         mapping_study.main,
         lambda f: ["--estimator", "--trials", "0", "--out", f["a_file"] + "_e"], "--trials"),
+    "gate study, a confidence that is not a majority": (
+        mapping_study.main,
+        lambda f: ["--gate", "--confidence", "0.4", "--out", f["a_file"] + "_g"], "--confidence"),
+    "gate study and state study at once": (
+        mapping_study.main,
+        lambda f: ["--gate", "--estimator", "--out", f["a_file"] + "_g"], "choose one"),
     "report, --out on an existing file": (
         report.main, lambda f: [BAG, "--out", f["a_file"]], "--out"),
     "sim, an --out that cannot be made": (

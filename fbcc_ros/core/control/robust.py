@@ -232,6 +232,20 @@ class RobustFbcc:
         m = self._main[trial]
         return ident.estimate_of(self._ident[trial], m[rk.C_MU], m[rk.C_CONTACT] > 0)
 
+    def adjustments(self) -> FloatArray:
+        """The integrators ``∫ ω_c Ĵ⁻¹ dz(ū) dt`` of every trial, (N, 5) in the law's axis
+        coordinates (a copy): the command is ``x_rfr`` less these, so a rise moves a feature
+        down."""
+        return self._main[:, rk.C_INT : rk.C_INT + 5].copy()
+
+    def hold_adjustments(self, held: np.ndarray, previous: FloatArray) -> None:
+        """Return the integrators of the ``held`` rows ((N, 5) bool) to ``previous`` (from
+        :meth:`adjustments` before the period): that period's adjustment of those rows is
+        undone from the next command on (a gate outside the law,
+        :mod:`fbcc_ros.core.control.state_gate`)."""
+        ints = self._main[:, rk.C_INT : rk.C_INT + 5]
+        ints[held] = previous[held]
+
     def guard_trips(self, trial: int = 0) -> int:
         """How often the oscillation guard tripped in this insertion."""
         return int(self._main[trial, rk.C_TRIPS])

@@ -59,7 +59,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -68,7 +68,7 @@ from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.features import true_rows
 from fbcc_ros.core.contact.model import FEATURE_NAMES, ContactBatch, PegHole
 from fbcc_ros.core.contact.segmentation import feature_state
-from fbcc_ros.core.control.laws import make_law
+from fbcc_ros.core.control.laws import Law, make_law
 from fbcc_ros.core.control.supervisor import SafetyLimits
 from fbcc_ros.core.errors import ConfigError, FbccError
 from fbcc_ros.core.sim.holder_solver import HolderSolver
@@ -206,6 +206,7 @@ def simulate(
     record: bool = True,
     seed: int | None = None,
     limits: SafetyLimits | None = None,
+    wrap: Callable[[Law], Any] | None = None,
 ) -> tuple[Outcome, Trajectory | None]:
     """Run N trials of the closed loop in lockstep.
 
@@ -217,6 +218,8 @@ def simulate(
         record: Keep the full signals (memory T × N × 25 floats).
         seed: Seed of the sensor noise; default the scenario's.
         limits: The supervisor's step limits; default the controller's.
+        wrap: Puts something around the law (the same interface: ``reset``, ``step``,
+            ``stopped``, ``trips``), e.g. :class:`~fbcc_ros.core.control.state_gate.StateGatedLaw`.
     """
     dev = np.atleast_2d(sc.initial if initial is None else np.asarray(initial, dtype=float))
     n = len(dev)
@@ -229,6 +232,8 @@ def simulate(
     dev_rows = np.ascontiguousarray(dev, dtype=float)
     rng = np.random.default_rng(sc.seed if seed is None else seed)
     law = make_law(law_name, sc.geometry, sc.params, sc.insertion)
+    if wrap is not None:
+        law = wrap(law)
     dt = 1.0 / sc.rate_hz
     alpha = 1.0 - math.exp(-dt / sc.lag) if sc.lag > 0 else 1.0  # first-order lag of the robot
 

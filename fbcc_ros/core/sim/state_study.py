@@ -29,7 +29,7 @@ from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import ContactBatch, PegHole
 from fbcc_ros.core.contact.segmentation import STATES, feature_state, response_state
 from fbcc_ros.core.control.contact_state import ContactStateEstimator, most_probable
-from fbcc_ros.core.control.contact_uncertainty import draw_in_state
+from fbcc_ros.core.control.contact_uncertainty import Uncertainty, draw_in_state
 from fbcc_ros.core.control.deviation_filter import along
 from fbcc_ros.core.sim.scenario import Scenario
 from fbcc_ros.core.sim.simulation import simulate
@@ -120,6 +120,22 @@ def drawn_study(estimator: ContactStateEstimator, per_state: int, seed: int,
     return tallies
 
 
+def drawn_insertions(sc: Scenario, unc: Uncertainty, stiffness: float, trials: int, seed: int,
+                     ) -> tuple[list[PegHole], FloatArray]:  # fmt: skip
+    """``trials`` parts drawn by ``unc`` around the scenario's geometry at ``stiffness`` [Pa]
+    and their holes' deviations (N, 5), uniform within the ranges (module doc)."""
+    rng = np.random.default_rng(seed)
+    nominal = sc.geometry.replace(stiffness=stiffness)
+    parts: list[PegHole] = []
+    while len(parts) < trials:  # as fbcc-montecarlo: a part no controller can push in is not
+        part = unc.part(nominal, rng)  # drawn (its push-in over 2/3 of the force limit)
+        if part.push_in_force() <= PUSH_IN_SHARE * sc.params.F_ext_limit:
+            parts.append(part)
+    lateral = rng.uniform(-1.0, 1.0, (trials, 4)) * np.array(
+        [unc.max_offset, unc.max_offset, unc.max_tilt, unc.max_tilt])
+    return parts, np.column_stack([lateral[:, :2], np.zeros(trials), lateral[:, 2:]])
+
+
 def trajectory_study(sc: Scenario, estimator: ContactStateEstimator, stiffness: float,
                      trials: int, seed: int, law: str = "fbcc", stride: int = 5,
                      particles: int = 4000,
@@ -131,16 +147,7 @@ def trajectory_study(sc: Scenario, estimator: ContactStateEstimator, stiffness: 
     measured contact) that are in the hole. Returns the tallies and the share of
     insertions that succeeded; ``progress(done, trials)`` after each insertion."""
     unc = estimator.uncertainty
-    rng = np.random.default_rng(seed)
-    nominal = sc.geometry.replace(stiffness=stiffness)
-    parts: list[PegHole] = []
-    while len(parts) < trials:  # as fbcc-montecarlo: a part no controller can push in is not
-        part = unc.part(nominal, rng)  # drawn (its push-in over 2/3 of the force limit)
-        if part.push_in_force() <= PUSH_IN_SHARE * sc.params.F_ext_limit:
-            parts.append(part)
-    lateral = rng.uniform(-1.0, 1.0, (trials, 4)) * np.array(
-        [unc.max_offset, unc.max_offset, unc.max_tilt, unc.max_tilt])
-    dev = np.column_stack([lateral[:, :2], np.zeros(trials), lateral[:, 2:]])
+    parts, dev = drawn_insertions(sc, unc, stiffness, trials, seed)
     outcome, traj = simulate(sc, law, initial=dev, geometries=parts, seed=seed)
     assert traj is not None  # record=True
     tallies = {name: Tally() for name in ("boundary mapping", "estimator, one response",
