@@ -72,25 +72,27 @@ def to_markdown(results: dict[str, Any]) -> str:
 
 
 def draw(results: dict[str, Any], path: Path) -> None:
-    """Per case, each arm's median and longest insertion time and its peak Fz median."""
+    """Per case, each arm's success, its median and longest insertion time (of the parts it
+    assembled) and its peak Fz median."""
     cases = [c for c in results if c != "settings"]
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
+    fig, axes = plt.subplots(1, 3, figsize=(16, 4.4))
     x = np.arange(len(cases))
     width = 0.8 / len(ARMS)
     for a, arm in enumerate(ARMS):
         pos = x + (a - (len(ARMS) - 1) / 2) * width
-        med = [results[c][arm]["time_median"] for c in cases]
-        top = [results[c][arm]["time_max"] for c in cases]
-        axes[0].bar(pos, med, width, label=f"{arm} (median)")
-        axes[0].scatter(pos, top, marker="v", color="k", s=14)
-        axes[1].bar(pos, [results[c][arm]["peak_fz_median"] for c in cases], width, label=arm)
-    for ax, label in zip(axes, ("insertion time [s] (▼ longest)", "peak Fz median [N]"),
-                         strict=True):  # fmt: skip
+        axes[0].bar(pos, [results[c][arm]["success"] for c in cases], width, label=arm)
+        axes[1].bar(pos, [results[c][arm]["time_median"] for c in cases], width)
+        axes[1].scatter(pos, [results[c][arm]["time_max"] for c in cases], marker="v",
+                        color="k", s=14)  # fmt: skip
+        axes[2].bar(pos, [results[c][arm]["peak_fz_median"] for c in cases], width)
+    labels = ("success", "insertion time [s], assembled parts (▼ longest)",
+              "peak Fz median [N]")  # fmt: skip
+    for ax, label in zip(axes, labels, strict=True):
         ax.set_xticks(x, cases, fontsize=7, rotation=20)
         ax.set_ylabel(label)
         ax.grid(axis="y", alpha=0.3)
-    axes[0].axhline(3.0, color="r", lw=0.8, ls="--")
-    axes[1].legend(fontsize=7)
+    axes[1].axhline(3.0, color="r", lw=0.8, ls="--")
+    axes[0].legend(fontsize=7, loc="lower left")
     fig.suptitle("Does the contact state help the law? (the same insertions, four ways)")
     fig.tight_layout()
     fig.savefig(path, dpi=90)
