@@ -5,7 +5,6 @@ and a figure."""
 from __future__ import annotations
 
 import itertools
-import json
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from fbcc_ros.cli.common import write_study
 from fbcc_ros.cli.montecarlo import ProgressBar
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.sim import scenario as scenario_io
@@ -100,9 +100,4 @@ def draw(results: dict[str, Any], path: Path) -> None:
 
 
 def write_gate_study(results: dict[str, Any], out: Path) -> None:
-    (out / "gate_study.json").write_text(json.dumps(results, indent=2))
-    md = to_markdown(results)
-    (out / "gate_study.md").write_text(md)
-    draw(results, out / "gate_study.png")
-    print(md)
-    print(f"wrote {out / 'gate_study.json'}, {out / 'gate_study.md'}, {out / 'gate_study.png'}")
+    write_study(out, "gate_study", results, to_markdown, draw)

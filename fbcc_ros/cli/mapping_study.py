@@ -21,7 +21,6 @@ filter, gated by the true state, and with the tilts alone gated by it:
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -31,7 +30,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-from fbcc_ros.cli.common import out_dir
+from fbcc_ros.cli.common import out_dir, write_study
 from fbcc_ros.cli.gate_study import run_gate_study, write_gate_study
 from fbcc_ros.cli.state_study import run_state_study, write_state_study
 from fbcc_ros.core.contact.mapping_study import classify_study
@@ -170,16 +169,7 @@ def main(argv: list[str] | None = None) -> int:
         placements = ("hole_bottom", "peg_top") if args.placement == "both" else (args.placement,)
         write_state_study(run_state_study(args.samples, args.trials, args.seed, placements), out)
         return 0
-    results = run_study(args.samples, args.seed)
-    (out / "mapping_study.json").write_text(json.dumps(results, indent=2))
-    md = to_markdown(results)
-    (out / "mapping_study.md").write_text(md)
-    draw(results, out / "mapping_study.png")
-    print(md)
-    print(
-        f"wrote {out / 'mapping_study.json'}, {out / 'mapping_study.md'}, "
-        f"{out / 'mapping_study.png'}"
-    )
+    write_study(out, "mapping_study", run_study(args.samples, args.seed), to_markdown, draw)
     return 0
 
 

@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-import json
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +15,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from fbcc_ros.cli.common import write_study
 from fbcc_ros.cli.montecarlo import ProgressBar
 from fbcc_ros.core.contact.segmentation import STATES
 from fbcc_ros.core.control.contact_state import ContactStateEstimator
@@ -119,10 +118,4 @@ def draw(results: dict[str, Any], path: Path) -> None:
 
 
 def write_state_study(results: dict[str, Any], out: Path) -> None:
-    (out / "state_study.json").write_text(json.dumps(results, indent=2))
-    md = to_markdown(results)
-    (out / "state_study.md").write_text(md)
-    draw(results, out / "state_study.png")
-    print(md)
-    print(f"wrote {out / 'state_study.json'}, {out / 'state_study.md'}, "
-          f"{out / 'state_study.png'}", file=sys.stdout)  # fmt: skip
+    write_study(out, "state_study", results, to_markdown, draw)
