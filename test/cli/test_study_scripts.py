@@ -24,3 +24,8 @@ def test_stiff_batches_prints_one_line_per_batch() -> None:
 def test_identification_gain_prints_the_four_stiffnesses() -> None:
     lines = _run("scripts/studies/identification_gain.py").strip().splitlines()
     assert [line.split()[0] for line in lines[1:]] == ["0.1", "1.0", "10.0", "40.0"], lines
+
+
+def test_delays_prints_a_line_per_run() -> None:
+    lines = _run("scripts/studies/delays.py", "stiff").strip().splitlines()
+    assert len(lines) == 6 and all("clearance 10 GPa, delay " in line for line in lines), lines

@@ -7,7 +7,8 @@ This is the plant of :mod:`fbcc_ros.core.sim.simulation` in joint space, for the
   that a peg at the believed features 0 has the true features ``x_dev``,
   ``T_base_Htrue = T_base_H P(0) P(x_dev)^-1`` with ``P(x)`` the peg pose of features x;
 * **the arm** follows its joint command with the first-order lag of the scenario
-  (``q += (1 - exp(-dt/tau)) (q_cmd - q)``), clipped to its position and velocity limits;
+  (``q += (1 - exp(-dt/tau)) (q_cmd - q)``), clipped to its position and velocity limits; a
+  command reaches it the scenario's ``robot.delay`` after it was given;
 * **the contact** is the analytic model with the true geometry (it may differ from the nominal
   one the controller knows: Table II tolerances);
 * **the sensor** sits under the true hole at its acting point, axes as the hole's, and carries a
@@ -20,6 +21,7 @@ as the simulator scores it.
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import math
 
@@ -99,6 +101,9 @@ class MockCell:
         # the arm starts with the peg at the believed features 0: over the hole, tip at its top
         self.q = solve_ik(robot, self.believed.peg_target(np.zeros(5), 0.0), robot.home).q
         self.q_cmd = self.q.copy()
+        #: the cell's time [s] and the commands given, not yet at the arm (robot.delay)
+        self.t = 0.0
+        self._late: collections.deque[tuple[float, FloatArray]] = collections.deque()
         self.fixture = fixture
         self._acting = pin.SE3(np.eye(3), self.geometry.acting_point_in_hole())
         #: the largest true contact |f| [N] and |m| about the true {H} origin [N·m] so far, as
@@ -129,7 +134,7 @@ class MockCell:
             raise InputError(
                 "joint_command", q.tolist(), f"positions within the limits of {self.robot.name}"
             )
-        self.q_cmd = q
+        self._late.append((self.t, q))
 
     def step(self, dt: float) -> CellSample:
         """Advance the arm by dt [s] toward its command and read the sensor."""
@@ -137,6 +142,10 @@ class MockCell:
         if alpha is None:
             lag = self.sc.lag
             alpha = self._alpha[dt] = 1.0 - math.exp(-dt / lag) if lag > 0 else 1.0
+        # the latest command given at least robot.delay ago reaches the arm
+        while self._late and self._late[0][0] <= self.t - self.sc.delay + 1e-9:
+            self.q_cmd = self._late.popleft()[1]
+        self.t += dt
         q_prev = self.q
         # q += (1 - exp(-dt/tau)) (q_cmd - q), within the velocity and position limits
         reach = self.robot.velocity_limit * dt

@@ -17,7 +17,9 @@ sensor         noise: standard deviations of (Fx, Fy, Fz, Mx, My) [N, N·m] or 0
                6-axis sensor under the hole; estimated: the LBR stack's estimate at its
                flange; external_torques | measured_torques: our virtual sensor), and qos, the
                F/T sensor's reliability (reliable | best_effort)
-robot          lag: time constant of the position-controlled robot [s] (0.005); for the ROS
+robot          lag: time constant of the position-controlled robot [s] (0.005); delay: how
+               long a command takes to reach the robot [s] (0; the simulator rounds it to
+               control periods): a cell's drivers and queues, to rehearse against; for the ROS
                cell: model (iiwa14), namespace (''), conventions (fbcc | lbr: the robot
                stack the mock plays) and rate_hz (the stack's rate; sets rate_hz below)
 holder         the compliance of arm, sensor and gripper at the grip point (absent: rigid):
@@ -115,6 +117,7 @@ class Scenario:
     name: str = "scenario"
     holder: Holder | None = None  # None: the peg held rigidly
     cell: RosCell = RosCell()
+    delay: float = 0.0  # [s] from a command to the robot (robot.delay)
 
     @property
     def law(self) -> str:
@@ -257,8 +260,9 @@ def validate(scenario: Any, name: str = "scenario") -> Scenario:
     bias = _vector5("sensor.bias", sen.get("bias", 0), 1000, "N, N·m")
 
     rob = _mapping("robot", s.get("robot", {}),
-                   ("lag", "model", "namespace", "conventions", "rate_hz"))  # fmt: skip
+                   ("lag", "delay", "model", "namespace", "conventions", "rate_hz"))  # fmt: skip
     lag = _number("robot.lag", rob.get("lag", DEFAULT_LAG), 0, 1, "s")
+    delay = _number("robot.delay", rob.get("delay", 0.0), 0, 1, "s")
     cell = _ros_cell(rob, sen)
 
     holder = None
@@ -302,7 +306,7 @@ def validate(scenario: Any, name: str = "scenario") -> Scenario:
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ConfigError("seed", seed, "an integer >= 0")
     return Scenario(geometry, laws, params, initial, insertion, noise, bias, lag, tolerance,
-                    rate, duration, seed, name, holder, cell)  # fmt: skip
+                    rate, duration, seed, name, holder, cell, delay)  # fmt: skip
 
 
 def _choice(key: str, value: Any, choices: tuple[str, ...]) -> str:

@@ -8,7 +8,8 @@ The plant, per trial:
   ``T_{H_true P} = P(x_dev) P(0)^-1 P(p)`` (:func:`fbcc_ros.core.contact.features.true_features`,
   the mock cell's plant too);
 * **the robot** is position controlled: ``p`` follows the command x_c with a first-order lag,
-  ``p(k+1) = p(k) + (1 - exp(-dt/tau)) (x_c(k) - p(k))``;
+  ``p(k+1) = p(k) + (1 - exp(-dt/tau)) (x_c(k - n) - p(k))``, the command reaching it
+  ``n = round(delay / dt)`` periods late (scenario ``robot.delay``, 0 by default);
 * **the contact** is the analytic model of eq. (5)-(13) (:mod:`fbcc_ros.core.contact.model`), with
 the
   true radii; the peg touches nothing while its depth is <= 0;
@@ -57,6 +58,7 @@ All quantities are the true ones (from the model, before the sensor), not the me
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import math
 from collections.abc import Callable, Sequence
@@ -241,6 +243,8 @@ def simulate(
     pose = np.zeros((n, 5))  # the robot's pose as features of the believed hole
     law.reset(pose)
     command = pose.copy()  # the supervisor starts from the measured pose
+    # the commands on their way to the robot (robot.delay): it holds its pose until the first
+    late = collections.deque([pose.copy()] * round(sc.delay * sc.rate_hz))
     limits = limits or SafetyLimits()
     metrics = _Metrics(sc, dev)
     unconverged = np.zeros(n)  # steps whose holder equilibrium the solver did not converge
@@ -264,7 +268,8 @@ def simulate(
             measured = w + sc.bias + sc.noise * rng.standard_normal((n, 5))
             buf_p[j] = pose
             command = limits.clip(command, law.step(measured, pose, dt))
-            pose += alpha * (command - pose)
+            late.append(command)
+            pose += alpha * (late.popleft() - pose)
             buf_x[j], buf_w[j], buf_m[j], buf_c[j] = x, w, measured, command
         t = (k0 + np.arange(kk)) * dt
         metrics.add(k0, np.asarray(t, dtype=float), buf_x[:kk], buf_w[:kk])

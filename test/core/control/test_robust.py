@@ -11,7 +11,6 @@ from typing import Any
 import numpy as np
 import pytest
 
-from fbcc_ros.core.contact.features import true_features
 from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.contact.segmentation import apply_direction
 from fbcc_ros.core.control import identification as ident
@@ -25,6 +24,7 @@ from fbcc_ros.core.control.loop_design import (
     loop_margins,
     loop_transfer,
 )
+from fbcc_ros.core.control.phase import Phase
 from fbcc_ros.core.control.robust import RobustFbcc
 from fbcc_ros.core.control.robust_params import RobustParams
 from fbcc_ros.core.errors import ConfigError
@@ -254,31 +254,20 @@ def _behind_a_delay(
     ph: PegHole, dev: np.ndarray, params: RobustParams, delay_steps: int, keep: bool = False
 ) -> tuple[Any, ...]:
     """The simulator's plant (rigid holder, 5 ms lag, default noise) whose commands take effect
-    ``delay_steps`` periods late: (phase, final depth, peak |(Fx, Fy)|, peak |F|), and with
-    ``keep`` the commands (T, 5); the phase is ``force limit`` when |F| passed 300 N (the run
-    stops there)."""
-    law = RobustFbcc(ph, params)
-    p = np.zeros(5)
-    law.reset(p)
-    rng = np.random.default_rng(0)
-    queue = [np.zeros(5)] * delay_steps
-    a = 1 - math.exp(-DT / 0.005)
-    peak_lateral = peak = 0.0
-    commands: list[np.ndarray] = []
-    for _ in range(4000):
-        x = true_features(p, dev, ph.peg_radius)[0]
-        x[2] = max(x[2], 0.0)
-        w = ph.response(x)
-        peak_lateral = max(peak_lateral, float(np.linalg.norm(w[:2])))
-        peak = max(peak, float(np.linalg.norm(w[:3])))
-        if peak > 300.0:
-            out = ("force limit", float(p[2]), peak_lateral, peak, np.array(commands))
-            return out if keep else out[:4]
-        queue.append(law.step(w + rng.normal(size=5) * [0.05, 0.05, 0.05, 2e-3, 2e-3], p, DT))
-        if keep:
-            commands.append(queue[-1])
-        p += a * (queue.pop(0) - p)
-    out = (law.phase_of(0), float(p[2]), peak_lateral, peak, np.array(commands))
+    ``delay_steps`` periods late (scenario ``robot.delay``), 4 s: (phase, final depth, peak
+    |(Fx, Fy)|, peak |F|), and with ``keep`` the commands (T, 5)."""
+    sc = validate({"geometry": dataclasses.asdict(ph),
+                   "initial": {"dx": dev[0], "dy": dev[1], "theta_x": dev[3],
+                               "theta_y": dev[4]},
+                   "robot": {"delay": delay_steps * DT}, "duration": 4.0})  # fmt: skip
+    sc = dataclasses.replace(sc, params=params)
+    laws: list[Any] = []
+    outcome, traj = simulate(sc, "fbcc", wrap=lambda law: laws.append(law) or law)
+    assert traj is not None
+    w = traj.response[:, 0]
+    out = (laws[0].phase_of(0), float(traj.pose[-1, 0, 2]),
+           float(np.linalg.norm(w[:, :2], axis=1).max()), float(outcome.peak_force[0]),
+           traj.command[:, 0])  # fmt: skip
     return out if keep else out[:4]
 
 
@@ -326,7 +315,7 @@ def test_a_stiff_part_behind_a_slow_loop_is_not_pushed_blind() -> None:
     phase, _, _, peak = _behind_a_delay(ph, dev, RobustParams(loop_delay=0.055), 50)
     assert phase == "inserted" and peak < 300.0, (phase, peak)  # below the force limit
     unbounded = RobustParams(loop_delay=0.055, lateral_lead=1.0)
-    assert _behind_a_delay(ph, dev, unbounded, 50)[0] == "force limit"
+    assert _behind_a_delay(ph, dev, unbounded, 50)[0] == Phase.FORCE_LIMIT
 
 
 #: Per parameter of the robust law: the value to change it to, and what else the run needs for

@@ -76,6 +76,8 @@ _DELETE = object()
         (("robot", "namespace"), "lbr", "robot.namespace", "/lbr"),
         (("robot", "conventions"), "fri", "robot.conventions", "lbr"),
         (("robot", "rate_hz"), 5.0, "robot.rate_hz", "Hz"),
+        (("robot", "delay"), 20.0, "robot.delay", "s"),  # ms given as s
+        (("robot", "delay"), -0.01, "robot.delay", "s"),
         (("sensor", "source"), "wrist", "sensor.source", "measured_torques"),
         (("sensor", "qos"), "sensor_data", "sensor.qos", "best_effort"),
         (("sensor", "source"), "estimated", "sensor.source", "conventions lbr"),

@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.paper import paper_scenario
@@ -15,6 +17,11 @@ from fbcc_ros.core.sim.holder import Holder
 from fbcc_ros.core.sim.montecarlo import draw_trials, replay_trial, run_montecarlo, wilson_interval
 from fbcc_ros.core.sim.scenario import validate
 from fbcc_ros.core.sim.simulation import _Metrics, run, simulate
+from fbcc_ros.pipeline.mock_cell import TABLE as MOCK
+from fbcc_ros.pipeline.mock_cell import MockStage
+from fbcc_ros.pipeline.parameters import resolve
+
+ROOT = Path(__file__).resolve().parents[3]
 
 SUMMARY_KEYS = {"success", "insertion_time", "peak_fz", "residual_force", "residual_moment",
                 "tilt_overshoot", "final_features", "state_sequence"}  # fmt: skip
@@ -247,3 +254,30 @@ def test_the_simulator_clips_each_command_as_the_supervisor_does() -> None:
     assert (steps[:3] <= 2e-6 * (1 + 1e-9)).all() and (steps[3:] <= 1e-5 * (1 + 1e-9)).all()
     free_steps = np.abs(np.diff(free.command[:, 0], axis=0)).max(axis=0)
     assert free_steps[2] > 4e-6  # the depth ramp alone: 5 µm a period, so the clip did act
+
+
+def test_a_delayed_robot_follows_the_same_commands_later(tmp_path: Path) -> None:
+    """robot.delay: the commands reach the robot that many periods late, in the simulator and in
+    the mock cell of the ROS nodes. Position control alone (its commands ignore the force):
+    the delayed pose is the undelayed one shifted by the delay, sample for sample."""
+    data = yaml.safe_load((ROOT / "config/scenarios/robust_clearance.yaml").read_text())
+    data["controller"] = {"type": "none"}
+    # aligned: no contact force stops either run at the force limit at its own moment
+    data["initial"] = {"dx": 0.0, "dy": 0.0, "theta_x": 0.0, "theta_y": 0.0}
+    _, now = simulate(validate(data), "none")
+    data["robot"] = {"delay": 0.02}
+    _, late = simulate(validate(data), "none")
+    assert now is not None and late is not None
+    np.testing.assert_array_equal(late.pose[20:], now.pose[:-20])
+    assert (late.pose[:20] == 0.0).all() and now.pose[5, 0, 2] > 0.0
+
+    cell_data = yaml.safe_load((ROOT / "config/scenarios/bringup_interference.yaml").read_text())
+    cell_data["robot"] = dict(cell_data.get("robot", {}), delay=0.02)
+    path = tmp_path / "late.yaml"
+    path.write_text(yaml.safe_dump(cell_data))
+    cell = MockStage(resolve("mock_cell", MOCK, {"scenario": str(path)})).cell
+    start = cell.q.copy()
+    cell.command(start + 0.01)
+    for _ in range(20):  # 19 periods after the command: not yet at the arm
+        np.testing.assert_array_equal(cell.step(1e-3).q, start)
+    assert (cell.step(1e-3).q > start).all()  # the 20th: it is
