@@ -91,6 +91,26 @@ def test_a_cloud_every_particle_of_which_is_contradicted_is_spread_out() -> None
     assert f.spread_outs == 1 and p[0, STATES.index("P0")] > 0.5
 
 
+def test_a_reading_within_the_noise_is_no_contact() -> None:
+    """Half the cloud has the peg free in the clearance, half pressed 1 µm into the wall. A
+    reading of 2 noise deviations in Fz is noise (CONTACT_SIGMAS = 3): the pressed half loses;
+    one of 8 deviations, pushing the peg back from +x, is a contact: the free half loses."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
+    nominal = sc.geometry.replace(stiffness=1e10)
+    gap = nominal.hole_radius - nominal.peg_radius
+    theta = np.zeros((500, 6))
+    theta[:250, 0] = gap + 1e-6  # pressed against the wall along +x
+    theta[:, 4] = nominal.friction
+    features = np.array([0.0, 0.0, 3e-3, 0.0, 0.0])
+    noise_fz = Uncertainty().noise[2]
+    for fz, fx, winners in ((2 * noise_fz, 0.0, slice(250, None)),
+                            (8 * noise_fz, -1.0, slice(None, 250))):  # fmt: skip
+        f = DeviationFilter(nominal, particles=500, anneal=0, seed=3)
+        f._theta = theta.copy()
+        f.update(np.array([fx, 0.0, fz, 0.0, 0.0]), features)
+        assert f.weights[winners].sum() > 0.99, (fz, f.weights[winners].sum())
+
+
 @pytest.mark.parametrize(("kwargs", "match"), [
     ({"particles": 10}, r"particles=10.*at least 100"),
     ({"anneal": -1}, r"anneal=-1.*>= 0"),
