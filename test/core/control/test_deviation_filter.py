@@ -8,10 +8,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fbcc_ros.core.contact.segmentation import STATES, feature_state
+from fbcc_ros.core.contact.segmentation import FZ_MIN, STATES, feature_state
 from fbcc_ros.core.control.contact_state import most_probable
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
-from fbcc_ros.core.control.deviation_filter import SPREAD_OUT, DeviationFilter, StateFeed
+from fbcc_ros.core.control.deviation_filter import (
+    ENTRY_DEPTH,
+    SPREAD_OUT,
+    DeviationFilter,
+    StateFeed,
+)
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import simulate
@@ -109,6 +114,29 @@ def test_a_reading_within_the_noise_is_no_contact() -> None:
         f._theta = theta.copy()
         f.update(np.array([fx, 0.0, fz, 0.0, 0.0]), features)
         assert f.weights[winners].sum() > 0.99, (fz, f.weights[winners].sum())
+
+
+def test_in_the_hole_a_particle_that_touches_at_all_is_in_contact() -> None:
+    """The prediction is at the nominal k; the part may be far stiffer. 3 mm in, a particle
+    that overlaps the wall by 0.1 µm (predicting far less than FZ_MIN at the nominal k) is in
+    contact when the sensor reads one, and beats a particle that puts the peg free; at the
+    entry (ENTRY_DEPTH) it is not told apart from it."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
+    nominal = sc.geometry
+    gap = nominal.hole_radius - nominal.peg_radius
+    theta = np.zeros((500, 6))
+    theta[:250, 0] = gap + 1e-7  # touching the wall along +x by 0.1 µm
+    theta[:, 4] = nominal.friction
+    reading = np.array([-1.0, 0.0, 8 * Uncertainty().noise[2], 0.0, 0.0])
+    for depth, touching_wins in ((3e-3, True), (ENTRY_DEPTH / 2, False)):
+        f = DeviationFilter(nominal, particles=500, anneal=0, seed=3)
+        f._theta = theta.copy()
+        features = np.array([0.0, 0.0, depth, 0.0, 0.0])
+        pressed = nominal.response(f.true_features(features)[0])
+        assert 0.0 < pressed[2] < FZ_MIN  # it touches, below FZ_MIN at the nominal k
+        f.update(reading, features)
+        share = f.weights[:250].sum()
+        assert share > 0.99 if touching_wins else share == pytest.approx(0.5), (depth, share)
 
 
 @pytest.mark.parametrize(("kwargs", "match"), [
