@@ -10,7 +10,8 @@ filtered row, whatever the state. A state names the sign of each plane's offset 
 * otherwise (ambiguous, or the feature within its band) leaves the law alone. Holding a row
   whose feature is within its band (sign 0) was tried: told the true state, it held 83 % of the
   rows' periods and left up to 2 N of lateral force at the depth, since the law settles forces,
-  and a peg within its band can still press (a tilt's eq. 20 shift).
+  and a peg within its band can still press (a tilt's eq. 20 shift). With ``tilts_only`` the
+  offsets' signs are not used: the tilt rows alone are gated.
 
 A vetoed row's integrator returns to where it was before the period
 (:meth:`RobustFbcc.hold_adjustments`), so the veto acts from the next command on (one period
