@@ -196,7 +196,7 @@ class StateWorker:
 
     @property
     def alive(self) -> bool:
-        return self._process.poll() is None
+        return self.exit_code is None
 
     @property
     def exit_code(self) -> int | None:

@@ -46,3 +46,11 @@ def recorder_and_cell(folder: Path, log: IO[str], *cell_args: str
                              "--wait-for-recorder"], cwd=ROOT, stdout=log,
                             stderr=subprocess.STDOUT)  # fmt: skip
     return recorder, cell
+
+
+def kill_left(*procs: subprocess.Popen[bytes]) -> None:
+    """Kill and reap each process that still runs (a test's cleanup, however it ended)."""
+    for proc in procs:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()

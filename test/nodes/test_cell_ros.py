@@ -22,6 +22,7 @@ from fbcc_ros.harness.cell_run import CellRun
 from fbcc_ros.nodes.bringup import cell_nodes, run_cell, start_insertion
 from fbcc_ros.nodes.bringup import main as bringup_main
 from fbcc_ros.ros.cdr import decode_string
+from test.nodes.conftest import kill_left
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "config" / "scenarios" / "bringup_interference.yaml"
@@ -310,9 +311,7 @@ def test_each_node_starts_as_a_process_with_its_yaml(node: str, tmp_path: Path) 
             proc.send_signal(signal.SIGINT)
             assert proc.wait(timeout=10) == 0
         finally:
-            if proc.poll() is None:
-                proc.kill()
-                proc.wait()
+            kill_left(proc)
     text = log.read_text()
     assert "Traceback" not in text and "[ERROR]" not in text, text
 

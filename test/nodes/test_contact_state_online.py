@@ -16,7 +16,7 @@ from rosbags.highlevel import AnyReader
 from fbcc_ros.bag.reader import read_bag
 from fbcc_ros.cli import report, report_states
 from fbcc_ros.core.contact.segmentation import STATES
-from test.nodes.conftest import recorder_and_cell
+from test.nodes.conftest import kill_left, recorder_and_cell
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "config" / "scenarios" / "bringup_interference.yaml"
@@ -40,10 +40,7 @@ def test_the_controllers_contact_states_are_the_filters_along_the_recorded_sessi
         recorder.send_signal(signal.SIGINT)  # a clean stop: the bag is closed
         recorder.wait(timeout=20)
     finally:
-        for proc in (cell, recorder):
-            if proc.poll() is None:
-                proc.kill()
-                proc.wait()
+        kill_left(cell, recorder)
     assert "contact-state filter started" in log_path.read_text()
     with AnyReader([folder]) as reader:
         connections = [c for c in reader.connections if c.topic == report_states.RECORDED]

@@ -21,7 +21,7 @@ from fbcc_ros.bag.reader import read_bag
 from fbcc_ros.nodes.fbcc_record import FbccRecordNode
 from fbcc_ros.nodes.mock_cell import MockCellNode
 from fbcc_ros.ros import cdr
-from test.nodes.conftest import recorder_and_cell
+from test.nodes.conftest import kill_left, recorder_and_cell
 
 ROOT = Path(__file__).resolve().parents[2]
 TOPICS = ["joint_states", "ft_sensor/raw"]
@@ -102,10 +102,7 @@ def test_a_killed_recorder_leaves_a_readable_truncated_bag_the_report_says_so(
         recorder.send_signal(signal.SIGKILL)
         recorder.wait(timeout=10)
     finally:
-        for proc in (cell, recorder):
-            if proc.poll() is None:
-                proc.kill()
-                proc.wait()
+        kill_left(cell, recorder)
     bag = read_bag(folder)
     assert bag.truncated, "a killed recorder cannot have written the footer"
     # up to the last flushed chunk: at least half of what the checkpoint counted

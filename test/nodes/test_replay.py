@@ -20,6 +20,7 @@ from fbcc_ros.bag.reader import read_bag
 from fbcc_ros.bag.writer import BagWriter
 from fbcc_ros.ros import topics
 from fbcc_ros.ros.cdr import decode_joints
+from test.nodes.conftest import kill_left
 
 ROOT = Path(__file__).resolve().parents[2]
 BAG = ROOT / "test" / "data" / "bags" / "short_interference"
@@ -58,9 +59,7 @@ def test_republished_at_the_recorded_pace_scaled_by_the_rate() -> None:
             executor.spin_once(timeout_sec=0.01)
         out, err = proc.communicate(timeout=10)
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+        kill_left(proc)
         node.destroy_node()
         rclpy.try_shutdown(context=context)
     assert proc.returncode == 0, err
