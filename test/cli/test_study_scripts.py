@@ -29,3 +29,10 @@ def test_identification_gain_prints_the_four_stiffnesses() -> None:
 def test_delays_prints_a_line_per_run() -> None:
     lines = _run("scripts/studies/delays.py", "stiff").strip().splitlines()
     assert len(lines) == 6 and all("clearance 10 GPa, delay " in line for line in lines), lines
+
+
+def test_filter_along_prints_a_line_per_case() -> None:
+    out = _run("scripts/studies/filter_along.py", "--trials", "1", "--cases",
+               "clearance:1e9,interference:5e8").strip().splitlines()  # fmt: skip
+    assert [line.split(",")[0] for line in out] == ["clearance 1 GPa", "interference 0.5 GPa"]
+    assert all("right 0." in line or "right 1." in line for line in out), out

@@ -1,0 +1,80 @@
+"""The deviation filter along the state study's insertions, on any seed (docs/boundary-mapping.md):
+per fit and stiffness, the share of states named right, the filter's CPU a 1 kHz sample, and
+how many scored samples rest free (true P0) or touch with less than 3 noise deviations.
+
+    .venv/bin/python scripts/studies/filter_along.py --seed 3 --trials 32
+    .venv/bin/python scripts/studies/filter_along.py --seed 0 --trials 8 --cases clearance:1e10
+
+The insertions are those of ``fbcc-mapping-study --estimator`` (F/T under the hole): parts and
+deviations by ``state_study.drawn_insertions``, the filter as the controller runs it
+(``deviation_filter.along``, every 5th sample, seed ``trial``), scored where the peg is in the
+hole, both planes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from fbcc_ros.core.contact.segmentation import feature_state
+from fbcc_ros.core.control.contact_state import most_probable
+from fbcc_ros.core.control.contact_uncertainty import Uncertainty
+from fbcc_ros.core.control.deviation_filter import along
+from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim.simulation import simulate
+from fbcc_ros.core.sim.state_study import drawn_insertions
+
+CASES = "clearance:1.84e8,clearance:1e9,clearance:1e10,interference:5e8,interference:1e9"
+#: A touch under this many deviations of the sensor's noise in |F| is below what one sample
+#: shows.
+FAINT = 3.0
+
+
+def case(fit: str, k: float, trials: int, seed: int) -> str:
+    """One line: the share named right, the CPU, the free and the faint shares."""
+    sc = scenario_io.load(scenario_io.find(f"config/scenarios/robust_{fit}.yaml"))
+    unc = Uncertainty()
+    parts, dev = drawn_insertions(sc, unc, k, trials, seed)
+    _, traj = simulate(sc, "fbcc", initial=dev, geometries=parts, seed=seed)
+    assert traj is not None
+    right = scored = free = faint = 0
+    cpu = 0.0
+    for i in range(trials):
+        x, w, pose = traj.features[:, i], traj.measured[:, i], traj.pose[:, i]
+        start = time.process_time()
+        rows, p = along(pose, w, sc.geometry, 5, uncertainty=unc, seed=i)
+        cpu += time.process_time() - start
+        named, _ = most_probable(p)
+        inside = x[rows, 2] > 0
+        truth = feature_state(x[rows[inside]], parts[i])
+        force = np.linalg.norm(traj.response[rows[inside], i, :3], axis=1)
+        for plane in range(2):
+            right += int((named[inside, plane] == truth[plane]).sum())
+            free += int((truth[plane] == "P0").sum())
+            faint += int(((truth[plane] != "P0") & (force < FAINT * unc.noise[2])).sum())
+        scored += 2 * int(inside.sum())
+    return (f"{fit} {k / 1e9:g} GPa, seed {seed}, {trials} insertions: right "
+            f"{right / scored:.3f}, CPU {cpu / (trials * traj.t.size) * 1e6:.0f} µs a sample; "
+            f"of {scored} scored: free {free / scored:.2f}, touching under {FAINT:g} σ "
+            f"{faint / scored:.2f}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--trials", type=int, default=8)
+    parser.add_argument("--cases", default=CASES, help=f"fit:k[Pa],... (default {CASES})")
+    args = parser.parse_args()
+    if args.trials < 1 or args.seed < 0:
+        parser.error(f"--trials {args.trials} --seed {args.seed}: expected >= 1 and >= 0")
+    for item in args.cases.split(","):
+        fit, _, k = item.partition(":")
+        if fit not in ("clearance", "interference"):
+            parser.error(f"--cases {item!r}: expected clearance:k or interference:k")
+        print(case(fit, float(k), args.trials, args.seed), flush=True)
+
+
+if __name__ == "__main__":
+    main()
