@@ -7,8 +7,9 @@ how many scored samples rest free (true P0) or touch with less than 3 noise devi
 
 The insertions are those of ``fbcc-mapping-study --estimator`` (F/T under the hole): parts and
 deviations by ``state_study.drawn_insertions``, the filter as the controller runs it
-(``deviation_filter.along``, every 5th sample, seed ``trial``), scored where the peg is in the
-hole, both planes.
+(``deviation_filter.along``, every 5th sample, seed ``trial``, told the case's k as the part's
+nominal one, or with ``--unknown-k`` nothing of it), scored where the peg is in the hole, both
+planes.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import numpy as np
 from fbcc_ros.core.contact.segmentation import feature_state
 from fbcc_ros.core.control.contact_state import most_probable
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
-from fbcc_ros.core.control.deviation_filter import along
+from fbcc_ros.core.control.deviation_filter import UNKNOWN_STIFFNESS, along
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import simulate
 from fbcc_ros.core.sim.state_study import drawn_insertions
@@ -32,8 +33,9 @@ CASES = "clearance:1.84e8,clearance:1e9,clearance:1e10,interference:5e8,interfer
 FAINT = 3.0
 
 
-def case(fit: str, k: float, trials: int, seed: int) -> str:
-    """One line: the share named right, the CPU, the free and the faint shares."""
+def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False) -> str:
+    """One line: the share named right, the CPU, the free and the faint shares. The filter is
+    told the part's k (to within the uncertainty's factor), or, ``unknown_k``, nothing of it."""
     sc = scenario_io.load(scenario_io.find(f"config/scenarios/robust_{fit}.yaml"))
     unc = Uncertainty()
     parts, dev = drawn_insertions(sc, unc, k, trials, seed)
@@ -44,7 +46,8 @@ def case(fit: str, k: float, trials: int, seed: int) -> str:
     for i in range(trials):
         x, w, pose = traj.features[:, i], traj.measured[:, i], traj.pose[:, i]
         start = time.process_time()
-        rows, p = along(pose, w, sc.geometry, 5, uncertainty=unc, seed=i)
+        rows, p = along(pose, w, sc.geometry.replace(stiffness=k), 5, uncertainty=unc, seed=i,
+                        **({"stiffness": UNKNOWN_STIFFNESS} if unknown_k else {}))
         cpu += time.process_time() - start
         named, _ = most_probable(p)
         inside = x[rows, 2] > 0
@@ -66,6 +69,8 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--trials", type=int, default=8)
     parser.add_argument("--cases", default=CASES, help=f"fit:k[Pa],... (default {CASES})")
+    parser.add_argument("--unknown-k", action="store_true",
+                        help="the filter is not told k (a prior over UNKNOWN_STIFFNESS)")
     args = parser.parse_args()
     if args.trials < 1 or args.seed < 0:
         parser.error(f"--trials {args.trials} --seed {args.seed}: expected >= 1 and >= 0")
@@ -73,7 +78,7 @@ def main() -> None:
         fit, _, k = item.partition(":")
         if fit not in ("clearance", "interference"):
             parser.error(f"--cases {item!r}: expected clearance:k or interference:k")
-        print(case(fit, float(k), args.trials, args.seed), flush=True)
+        print(case(fit, float(k), args.trials, args.seed, args.unknown_k), flush=True)
 
 
 if __name__ == "__main__":

@@ -156,8 +156,9 @@ def trajectory_study(sc: Scenario, estimator: ContactStateEstimator, stiffness: 
         x, w, pose = traj.features[:, i], traj.measured[:, i], traj.pose[:, i]
         # the filter as the controller and the report run it: every stride-th sample from the
         # first measured contact
-        rows, named = along(pose, w, sc.geometry, stride, uncertainty=unc, particles=particles,
-                            seed=seed + i)  # fmt: skip
+        # its nominal part is the case's: the user states k, to within the uncertainty
+        rows, named = along(pose, w, sc.geometry.replace(stiffness=stiffness), stride,
+                            uncertainty=unc, particles=particles, seed=seed + i)  # fmt: skip
         inside = x[rows, 2] > 0  # scored in the hole, where a true state is named
         scored = rows[inside]
         truth = np.array([feature_state(x[k], parts[i]) for k in scored], dtype=object)

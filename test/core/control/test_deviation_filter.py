@@ -8,12 +8,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.contact.segmentation import FZ_MIN, STATES, feature_state
 from fbcc_ros.core.control.contact_state import most_probable
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.control.deviation_filter import (
     ENTRY_DEPTH,
     SPREAD_OUT,
+    UNKNOWN_STIFFNESS,
     DeviationFilter,
     StateFeed,
 )
@@ -38,10 +40,13 @@ def insertions() -> tuple:
 
 
 def test_the_deviation_is_found_and_the_states_named(insertions: tuple) -> None:
+    """The filter told the parts' k as a user states it (0.5 GPa; each part is within 2^±1 of
+    it)."""
     sc, unc, parts, dev, traj = insertions
+    stated = sc.geometry.replace(stiffness=5e8)
     right = total = sure = sure_right = 0
     for i in range(len(parts)):
-        f = DeviationFilter(sc.geometry, unc, seed=i)
+        f = DeviationFilter(stated, unc, seed=i)
         for k in range(0, len(traj.t), 5):
             x, pose = traj.features[k, i], traj.pose[k, i]
             if x[2] <= 0 and pose[2] <= 0:
@@ -59,6 +64,15 @@ def test_the_deviation_is_found_and_the_states_named(insertions: tuple) -> None:
         assert (error[:2] < 1e-6).all() and (error[2:] < 1e-4).all(), error  # 1 µm, 0.1 mrad
     assert right / total >= 0.9, right / total
     assert sure_right / sure >= 0.95, (sure, sure_right)
+
+
+def _cloud(nominal: PegHole, n: int = 500) -> np.ndarray:
+    """n particles at the believed hole with the nominal μ, gap and k: (dx, dy, θx, θy, μ, g,
+    ln k)."""
+    theta = np.zeros((n, 7))
+    theta[:, 4] = nominal.friction
+    theta[:, 6] = np.log(nominal.stiffness)
+    return theta
 
 
 def test_before_any_contact_the_state_is_open() -> None:
@@ -79,9 +93,8 @@ def test_a_cloud_every_particle_of_which_is_contradicted_is_spread_out() -> None
     nominal = sc.geometry.replace(stiffness=1e10)  # a steel pair: 1 µm presses
     f = DeviationFilter(nominal, particles=500, anneal=0, seed=3)
     gap = nominal.hole_radius - nominal.peg_radius
-    theta = np.zeros((500, 6))
+    theta = _cloud(nominal)
     theta[:, 0] = gap + 1e-6  # each particle: the hole 1 µm past the wall, along x
-    theta[:, 4] = nominal.friction
     f._theta = theta.copy()
     features = np.array([0.0, 0.0, 3e-3, 0.0, 0.0])
     pressing = f.true_features(features)
@@ -103,9 +116,8 @@ def test_a_reading_within_the_noise_is_no_contact() -> None:
     sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
     nominal = sc.geometry.replace(stiffness=1e10)
     gap = nominal.hole_radius - nominal.peg_radius
-    theta = np.zeros((500, 6))
+    theta = _cloud(nominal)
     theta[:250, 0] = gap + 1e-6  # pressed against the wall along +x
-    theta[:, 4] = nominal.friction
     features = np.array([0.0, 0.0, 3e-3, 0.0, 0.0])
     noise_fz = Uncertainty().noise[2]
     for fz, fx, winners in ((2 * noise_fz, 0.0, slice(250, None)),
@@ -117,31 +129,71 @@ def test_a_reading_within_the_noise_is_no_contact() -> None:
 
 
 def test_in_the_hole_a_particle_that_touches_at_all_is_in_contact() -> None:
-    """The prediction is at the nominal k; the part may be far stiffer. 3 mm in, a particle
-    that overlaps the wall by 0.1 µm (predicting far less than FZ_MIN at the nominal k) is in
-    contact when the sensor reads one, and beats a particle that puts the peg free; at the
-    entry (ENTRY_DEPTH) it is not told apart from it."""
+    """3 mm in, a particle that overlaps the wall by 0.1 µm, with a k that makes it predict far
+    less than FZ_MIN, is in contact when the sensor reads one, and beats a particle that puts
+    the peg free; at the entry (ENTRY_DEPTH) it is not told apart from it."""
     sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
     nominal = sc.geometry
     gap = nominal.hole_radius - nominal.peg_radius
-    theta = np.zeros((500, 6))
+    theta = _cloud(nominal)
     theta[:250, 0] = gap + 1e-7  # touching the wall along +x by 0.1 µm
-    theta[:, 4] = nominal.friction
     reading = np.array([-1.0, 0.0, 8 * Uncertainty().noise[2], 0.0, 0.0])
     for depth, touching_wins in ((3e-3, True), (ENTRY_DEPTH / 2, False)):
         f = DeviationFilter(nominal, particles=500, anneal=0, seed=3)
         f._theta = theta.copy()
         features = np.array([0.0, 0.0, depth, 0.0, 0.0])
         pressed = nominal.response(f.true_features(features)[0])
-        assert 0.0 < pressed[2] < FZ_MIN  # it touches, below FZ_MIN at the nominal k
+        assert 0.0 < pressed[2] < FZ_MIN  # it touches, below FZ_MIN at its k
         f.update(reading, features)
         share = f.weights[:250].sum()
         assert share > 0.99 if touching_wins else share == pytest.approx(0.5), (depth, share)
 
 
+def test_a_particles_stiffness_says_whether_its_touch_shows() -> None:
+    """Two halves of a cloud touch the wall alike, one as a soft part (0.1 GPa), one as steel
+    (100 GPa), by the least overlap at which steel reads 10 N. No reading: the steel half,
+    whose touch would show, loses. The steel half's own reading: the soft half, which predicts
+    a thousandth of it, loses."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
+    nominal = sc.geometry
+    gap = nominal.hole_radius - nominal.peg_radius
+    depth = 3e-3
+    steel_at = nominal.replace(stiffness=1e11).response
+    dx = next(gap + d for d in np.geomspace(1e-10, 1e-6, 400)
+              if steel_at([gap + d, 0, depth, 0, 0])[2] >= 10.0)
+    steel = steel_at([dx, 0, depth, 0, 0])
+    soft = steel / 1e3  # the model is linear in k
+    assert soft[2] < Uncertainty().noise[2] < 10.0 <= steel[2] < 11.0  # only steel shows
+    theta = _cloud(nominal)
+    theta[:, 0] = dx  # the true features are the deviation's at the believed centre
+    theta[:250, 6] = np.log(1e8)
+    theta[250:, 6] = np.log(1e11)
+    features = np.array([0.0, 0.0, depth, 0.0, 0.0])
+    for reading, winners in ((np.zeros(5), slice(None, 250)), (steel, slice(250, None))):
+        f = DeviationFilter(nominal, particles=500, anneal=0, seed=3)
+        f._theta = theta.copy()
+        f.update(reading, features)
+        assert f.weights[winners].sum() > 0.99, (reading, f.weights[winners].sum())
+
+
+def test_k_is_the_stated_one_or_drawn_over_a_stated_range() -> None:
+    """By default every particle has the nominal (stated) k; a user who does not know k gives a
+    range, over which the particles' k are log-uniform."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
+    nominal = sc.geometry.replace(stiffness=1e10)
+    for options, (lo, hi) in (({}, (1e10, 1e10)), ({"stiffness": UNKNOWN_STIFFNESS},
+                                                   UNKNOWN_STIFFNESS)):  # fmt: skip
+        k = np.exp(DeviationFilter(nominal, particles=1000, **options)._theta[:, 6])
+        assert np.isclose(k.min(), lo, rtol=0.1) and np.isclose(k.max(), hi, rtol=0.1), options
+        assert lo * (1 - 1e-12) <= k.min() and k.max() <= hi * (1 + 1e-12)
+        if lo < hi:  # log-uniform: as many below the geometric mean as above
+            assert abs(np.mean(k < np.sqrt(lo * hi)) - 0.5) < 0.05
+
+
 @pytest.mark.parametrize(("kwargs", "match"), [
     ({"particles": 10}, r"particles=10.*at least 100"),
     ({"anneal": -1}, r"anneal=-1.*>= 0"),
+    ({"stiffness": (1e9, 1e8)}, r"stiffness=\[1000000000.0, 100000000.0\].*0 < low <= high"),
 ])  # fmt: skip
 def test_bad_settings_are_refused(kwargs: dict, match: str) -> None:
     sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
