@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import functools
 import math
+import types
+from typing import Any
 
 import numba
 import numpy as np
@@ -120,3 +122,26 @@ def response_kernel(
         out[i, 3] = -w * lev_s + mu * y_a * w * sum_g0
         # eq. (13): My = ∫(z - z_A + mu R) p R cos(alpha) - mu A_x ∫p R
         out[i, 4] = w * lev_c - mu * x_a * w * sum_g0
+
+
+#: Floating-point liberties for a measurement model whose last bits do not matter (the deviation
+#: filter's, whose likelihood floors are 2-5 %): fused multiply-adds, reciprocals and
+#: approximate functions; not reordering, nor assuming no NaN or infinity (an untilted peg's
+#: interval is infinite). About 25 % less CPU than the strict kernel (4000 particles in contact,
+#: 3.4 → 2.5 ms), with responses within 1e-14 of its own, relative. The simulator keeps the
+#: strict kernel, so that its documented results reproduce to the bit.
+LOOSE_MATH = frozenset({"contract", "arcp", "afn"})
+
+
+def _loose(kernel: Any) -> Any:
+    """``kernel`` compiled with :data:`LOOSE_MATH`, under a name of its own: numba's cache keys
+    a compiled function by its name and code, not by its flags."""
+    py = kernel.py_func
+    clone = types.FunctionType(py.__code__, py.__globals__, f"{py.__name__}_loose",
+                               py.__defaults__, py.__closure__)  # fmt: skip
+    clone.__qualname__ = clone.__name__
+    clone.__doc__ = f"{py.__name__} under LOOSE_MATH."
+    return numba.njit(cache=True, fastmath=set(LOOSE_MATH))(clone)
+
+
+loose_response_kernel = _loose(response_kernel)

@@ -206,8 +206,8 @@ class DeviationFilter:
         self._table[0] = self.nominal.hole_radius + self._theta[:, 5]
         self._table[2] = self._theta[:, 4]
         self._table[3] = np.exp(self._theta[:, 6])
-        predicted = ContactBatch(self._table, self._peg_top, self.nominal.n_angles).response(
-            touching)
+        predicted = ContactBatch(self._table, self._peg_top, self.nominal.n_angles,
+                                 loose=True).response(touching)
         self.updates += 1
         scale = min(1.0, self.updates / self.anneal) if self.anneal else 1.0
         ll = self._log_likelihood(w[0], depth, predicted, touching[:, 2])

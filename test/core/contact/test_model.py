@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -10,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq
 
-from fbcc_ros.core.contact.model import PegHole, lame_stiffness
+from fbcc_ros.core.contact.model import ContactBatch, PegHole, lame_stiffness
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.paper import paper_pair
 from test.core.contact.reference_contact import reference_response
@@ -56,6 +57,21 @@ def test_batch_equals_rows(pair: PegHole) -> None:
     assert batch.shape == (1200, 5)
     rows = np.array([pair.response(x) for x in f[::97]])
     np.testing.assert_allclose(batch[::97], rows, rtol=1e-12, atol=1e-9)
+
+
+def test_the_loose_kernel_agrees_with_the_strict_one(pair: PegHole) -> None:
+    """The measurement model's LOOSE_MATH compile (kernel.py) is the same eq. 5-13 to rounding,
+    untilted rows included (their contact interval is infinite)."""
+    rng = np.random.default_rng(5)
+    f = np.column_stack([rng.uniform(-1e-4, 1e-4, (2000, 2)), rng.uniform(0, 12e-3, 2000),
+                         rng.uniform(-0.04, 0.04, (2000, 2))])  # fmt: skip
+    f[:200, 3:] = 0.0
+    batch = ContactBatch.of([pair])
+    strict = batch.response(f)
+    loose = dataclasses.replace(batch, loose=True).response(f)
+    assert (np.abs(strict[:, 2]) > 0).mean() > 0.5  # mostly in contact
+    scale = np.abs(strict).max(axis=0)
+    assert (np.abs(loose - strict) <= 1e-12 * scale).all()
 
 
 def test_zero_depth_and_no_overlap_give_an_exact_zero_wrench(pair: PegHole, clearance) -> None:
