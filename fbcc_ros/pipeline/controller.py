@@ -21,7 +21,7 @@ from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.compensation.wrench import response_from_wrench
 from fbcc_ros.core.contact.features import features_from_pose, pose_from_features
 from fbcc_ros.core.contact.segmentation import response_state
-from fbcc_ros.core.control.deviation_filter import StateFeed
+from fbcc_ros.core.control.deviation_filter import StateFeed, stiffness_range
 from fbcc_ros.core.control.laws import make_law
 from fbcc_ros.core.control.phase import WAITING
 from fbcc_ros.core.control.robust import RobustFbcc
@@ -56,6 +56,10 @@ TABLE = (
     Param("state_rate_hz", 200.0, "updates of fbcc/contact_state_estimate, the contact state "
           "by the deviation filter (in a process of its own, started once the topic is heard; "
           "at most the control rate); 0: none", "Hz", 0.0, 10000.0),
+    Param("state_stiffness", [0.0, 0.0], "the part's contact stiffness k as the contact-state "
+          "filter takes it, [low, high], log-uniform between; [0, 0]: the scenario's "
+          "geometry.stiffness (the part's k as stated; a part 3x off it costs the filter "
+          "accuracy); [1e8, 1e11] for a part whose k nobody knows", "Pa"),
     HOLE_FRAME,  # transport settings (the node's)
 )  # fmt: skip
 
@@ -63,6 +67,13 @@ TABLE = (
 def safety_limits(values: dict[str, Any]) -> SafetyLimits:
     """The supervisor's limits from :data:`TABLE`'s values."""
     return SafetyLimits(values["timeout"], values["max_step"], values["max_step_angle"])
+
+
+def state_stiffness(value: list[float]) -> tuple[float, float] | None:
+    """The filter's k range of the ``state_stiffness`` parameter; None for [0, 0]."""
+    if [float(x) for x in value] == [0.0, 0.0]:
+        return None
+    return stiffness_range(value, "state_stiffness")
 
 
 class ControllerStage:
@@ -104,6 +115,7 @@ class ControllerStage:
         state_rate = values["state_rate_hz"]
         every = max(1, round(rate / state_rate)) if state_rate > 0 else 0  # at most the rate
         self.state_feed = StateFeed(every) if every else None
+        self.state_stiffness = state_stiffness(values["state_stiffness"])
         self.state_worker: StateWorker | None = None
         self._was_active = False
 
@@ -190,7 +202,7 @@ class ControllerStage:
     def start_state_worker(self) -> bool:
         """Start the contact-state filter's process (once someone listens); whether it runs."""
         if self.state_feed is not None and self.state_worker is None:
-            self.state_worker = StateWorker(self.nominal)
+            self.state_worker = StateWorker(self.nominal, self.state_stiffness)
         return self.state_worker is not None
 
     def state_estimates(self, most: int) -> list[list[float]]:

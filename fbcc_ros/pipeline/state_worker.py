@@ -78,8 +78,8 @@ def _read_exactly(stream: BinaryIO, n: int) -> bytes | None:
 
 
 def serve(inbox: BinaryIO, outbox: BinaryIO) -> None:
-    """The child: the nominal pair first, then one filter per insertion and an answer per
-    sample, until its input closes."""
+    """The child: the nominal pair and the filter's options first, then one filter per
+    insertion and an answer per sample, until its input closes."""
     from fbcc_ros.core.control.deviation_filter import DeviationFilter
 
     def receive() -> Any:
@@ -91,17 +91,18 @@ def serve(inbox: BinaryIO, outbox: BinaryIO) -> None:
         outbox.write(_frame(item))
         outbox.flush()
 
-    nominal = receive()
-    if nominal is None:
+    start = receive()
+    if start is None:
         return
+    nominal, options = start
     # compile (or load) the filter's kernels before the first sample comes
     DeviationFilter(nominal, particles=100, converged_particles=100).update(
         np.zeros(5), np.zeros(5))  # fmt: skip
     send(_RESET)  # ready
-    filt = DeviationFilter(nominal)
+    filt = DeviationFilter(nominal, **options)
     while (item := receive()) is not None:
         if item == _RESET:
-            filt = DeviationFilter(nominal)
+            filt = DeviationFilter(nominal, **options)
             continue
         insertion, stamp, features, response = item
         send((insertion, stamp, filt.update(response, features)))
@@ -112,9 +113,11 @@ class StateWorker:
 
     Args:
         nominal: The controller's nominal pair.
+        stiffness: The filter's range of the part's k [Pa] (default: the nominal k;
+            :class:`~fbcc_ros.core.control.deviation_filter.DeviationFilter`).
     """
 
-    def __init__(self, nominal: PegHole) -> None:
+    def __init__(self, nominal: PegHole, stiffness: tuple[float, float] | None = None) -> None:
         # the lowest scheduling before anything is imported: the child's start-up yields to
         # the loop too; the answers go on a copy of stdout, and stdout itself to stderr, so
         # that nothing printed in the child can break a frame
@@ -127,7 +130,9 @@ class StateWorker:
         self._in, self._out = self._process.stdin.fileno(), self._process.stdout.fileno()
         for fd in (self._in, self._out):  # room for the backlog of the 4000-particle phase
             _widen(fd)
-        os.write(self._in, _frame(nominal))  # before the pipe is made non-blocking: whole
+        #: what the child's filters are built with besides the nominal pair
+        self.options = {} if stiffness is None else {"stiffness": tuple(stiffness)}
+        os.write(self._in, _frame((nominal, self.options)))  # before non-blocking: whole
         os.set_blocking(self._in, False)
         os.set_blocking(self._out, False)
         self._buffer = b""

@@ -74,3 +74,23 @@ def test_the_robust_law_takes_a_measured_noise_only_where_the_source_is_noisier(
     table1 = controller.ControllerStage(resolve("fbcc_controller", controller.TABLE, {
         "scenario": "config/scenarios/table1_clearance_label3.yaml"}))  # fmt: skip
     assert table1.noise([1.0] * 6) == ""
+
+
+def test_the_state_filters_k_is_the_scenarios_or_a_given_range() -> None:
+    """state_stiffness [0, 0] leaves the filter the scenario's k; a range is handed to it; a
+    range that is not one is refused at start-up, naming the parameter."""
+    def stage(value: list[float]) -> controller.ControllerStage:
+        return controller.ControllerStage(
+            resolve("fbcc_controller", controller.TABLE, {"state_stiffness": value}))
+
+    assert stage([0.0, 0.0]).state_stiffness is None
+    ranged = stage([1e8, 1e11])
+    assert ranged.start_state_worker()
+    try:  # the filter's process is handed the range
+        assert ranged.state_worker is not None
+        assert ranged.state_worker.options == {"stiffness": (1e8, 1e11)}
+    finally:
+        ranged.close()
+    for bad in ([1e9, 1e8], [0.0, 1e9], [1e9], [1e8, float("inf")]):
+        with pytest.raises(ConfigError, match=r"state_stiffness.*0 < low <= high \[Pa\]"):
+            stage(bad)

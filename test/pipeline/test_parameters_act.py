@@ -99,6 +99,7 @@ CHANGED: dict[str, Any] = {
     "law": "admittance",  # the default scenario's law is fbcc
     "kinematics.rate_hz": 10000.0,  # a 0.5 mm command is then beyond a period's reach
     "estimate_rate_hz": 500.0,
+    "state_stiffness": [1e8, 1e11],
     "payload.inertia": [1e-3, 0, 0, 0, 1e-3, 0, 0, 0, 1e-3],
     "deadband": [0.5, 0.05],
     "lowpass_hz": 20.0,
@@ -214,7 +215,9 @@ def _controller(values: dict[str, Any]) -> list[Any]:
                 out.append(command.homogeneous)
             out += [stage.estimate(stamp), stage.contact_state(), stage.said]
     feed = stage.state_feed  # the samples the contact-state filter would be handed
-    return [*out, stage.input_rate.measured_hz, None if feed is None else feed.sent]
+    # and the k it would take (test_state_worker: a range changes its answers)
+    return [*out, stage.input_rate.measured_hz, None if feed is None else feed.sent,
+            stage.state_stiffness]
 
 
 def _mock(values: dict[str, Any]) -> list[Any]:

@@ -9,7 +9,7 @@ import time
 import numpy as np
 import pytest
 
-from fbcc_ros.core.control.deviation_filter import StateFeed, along
+from fbcc_ros.core.control.deviation_filter import UNKNOWN_STIFFNESS, StateFeed, along
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import simulate
 from fbcc_ros.pipeline.state_worker import StateWorker
@@ -35,11 +35,16 @@ def _drain(worker: StateWorker, expected: int, timeout: float = 60.0) -> list:
     return got
 
 
-def test_the_worker_answers_as_the_filter_along_the_insertion(insertion) -> None:
+@pytest.mark.parametrize("stiffness", [None, UNKNOWN_STIFFNESS])
+def test_the_worker_answers_as_the_filter_along_the_insertion(insertion, stiffness) -> None:
+    """With the nominal k, and with a range of k for a part whose k nobody knows."""
     nominal, features, responses = insertion
-    rows, expected = along(features, responses, nominal, EVERY)
+    options = {} if stiffness is None else {"stiffness": stiffness}
+    rows, expected = along(features, responses, nominal, EVERY, **options)
     assert len(rows) > 20
-    worker, feed = StateWorker(nominal), StateFeed(EVERY)
+    if stiffness is not None:  # the range matters: the answers are not the nominal k's
+        assert not np.array_equal(expected, along(features, responses, nominal, EVERY)[1])
+    worker, feed = StateWorker(nominal, stiffness), StateFeed(EVERY)
 
     def insert() -> None:
         worker.start_insertion()

@@ -51,6 +51,7 @@ with its own gap (the clearance's no-contact region).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -117,6 +118,15 @@ JITTER_FLOOR = (1e-7, 1e-7, 1e-5, 1e-5, 1e-3, 3e-8, 0.01)
 UNKNOWN_STIFFNESS = (1e8, 1e11)
 
 
+def stiffness_range(value: Sequence[float], name: str = "stiffness") -> tuple[float, float]:
+    """A range of the part's k: two finite stiffnesses 0 < low <= high [Pa], else a
+    ConfigError naming ``name``."""
+    v = [float(x) for x in value]
+    if not (len(v) == 2 and 0 < v[0] <= v[1] < math.inf):
+        raise ConfigError(name, list(value), "two stiffnesses 0 < low <= high [Pa]")
+    return v[0], v[1]
+
+
 class DeviationFilter:
     """P(state) per plane along one insertion (module doc).
 
@@ -145,8 +155,7 @@ class DeviationFilter:
             raise ConfigError("anneal", anneal, "an update count >= 0")
         if stiffness is None:  # the stated k; MAGNITUDE_BAND covers the part being off it
             stiffness = (nominal.stiffness, nominal.stiffness)
-        if not (len(stiffness) == 2 and 0 < stiffness[0] <= stiffness[1] < math.inf):
-            raise ConfigError("stiffness", list(stiffness), "two stiffnesses 0 < low <= high [Pa]")
+        stiffness = stiffness_range(stiffness)
         self.nominal = nominal
         self.uncertainty = unc = uncertainty or Uncertainty()
         self.anneal = anneal
