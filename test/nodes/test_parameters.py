@@ -52,6 +52,7 @@ CHANGED: dict[str, Any] = {
     "flange_frame": "iiwa_link_7",
     "tool_frame": "iiwa_link_7",
     "locked_joints": ["panda_finger_joint1", "panda_finger_joint2"],
+    "state_stiffness": [1e8, 1e11],  # [0, 0] is the scenario's k; [0.01, 0] no range
 }
 #: Where the iiwa's home puts {H} (hole_from_home), nudged so that an explicit hole differs.
 HOLE = {"hole_xyz": [0.575, 0.0, 0.336], "hole_rpy": [0.0, 0.0, math.pi]}
