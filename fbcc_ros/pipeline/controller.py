@@ -58,8 +58,8 @@ TABLE = (
           "at most the control rate); 0: none", "Hz", 0.0, 10000.0),
     Param("state_stiffness", [0.0, 0.0], "the part's contact stiffness k as the contact-state "
           "filter takes it, [low, high], log-uniform between; [0, 0]: the scenario's "
-          "geometry.stiffness (the part's k as stated; a part 3x off it costs the filter "
-          "accuracy); [1e8, 1e11] for a part whose k nobody knows", "Pa"),
+          "geometry.stiffness (the part's k as stated; a part more than 2x off it costs the "
+          "filter accuracy); [1e8, 1e11] for a part whose k nobody knows", "Pa"),
     HOLE_FRAME,  # transport settings (the node's)
 )  # fmt: skip
 

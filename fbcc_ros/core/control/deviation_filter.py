@@ -16,8 +16,8 @@ filter's hidden state is constant:
 
 with g the radial gap R − r off the nominal. Particles start uniform over the stated
 :class:`~fbcc_ros.core.control.contact_uncertainty.Uncertainty` (deviations ±range, μ ×(1 ± f),
-g ± 2·radius) and log-uniform in k over ``stiffness`` (default: the nominal k times
-2^±``stiffness_octaves``, a k the user states to within a factor; :data:`UNKNOWN_STIFFNESS` for
+g ± 2·radius) and with k log-uniform over ``stiffness`` (default: the nominal k alone, the k
+the user states, :data:`MAGNITUDE_BAND` covering a part off it; :data:`UNKNOWN_STIFFNESS` for
 one nobody knows). Each update, every particle's true features give its predicted response
 (the contact model of eq. 5-13 with its μ, gap and k); the likelihood compares the indicators of
 both planes (u = F/Fz and σ, :func:`~fbcc_ros.core.contact.segmentation.normalised_coordinates`,
