@@ -8,13 +8,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fbcc_ros.core.contact.model import PegHole
+from fbcc_ros.core.contact.model import ContactBatch, PegHole
 from fbcc_ros.core.contact.segmentation import FZ_MIN, STATES, feature_state
 from fbcc_ros.core.control.contact_state import most_probable
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.control.deviation_filter import (
+    CONTACT_SIGMAS,
     ENTRY_DEPTH,
     SPREAD_OUT,
+    SURPRISE_MEMORY,
     UNKNOWN_STIFFNESS,
     DeviationFilter,
     StateFeed,
@@ -75,6 +77,15 @@ def _cloud(nominal: PegHole, n: int = 500) -> np.ndarray:
     return theta
 
 
+def _weighing(nominal: PegHole, unc: Uncertainty | None = None) -> DeviationFilter:
+    """A filter of 500 particles, not annealed, that only weighs. Two halves of a cloud, one of
+    which loses, leave an effective sample size of half, the resampling threshold, where
+    rounding would decide whether the weights are reset."""
+    f = DeviationFilter(nominal, unc, particles=500, anneal=0, seed=3)
+    f._resample = lambda weights: None  # type: ignore[method-assign]
+    return f
+
+
 def test_before_any_contact_the_state_is_open() -> None:
     """No contact yet: no particle pressing is favoured over another, and no state of a
     contact is named with certainty."""
@@ -122,7 +133,7 @@ def test_a_reading_within_the_noise_is_no_contact() -> None:
     noise_fz = Uncertainty().noise[2]
     for fz, fx, winners in ((2 * noise_fz, 0.0, slice(250, None)),
                             (8 * noise_fz, -1.0, slice(None, 250))):  # fmt: skip
-        f = DeviationFilter(nominal, particles=500, anneal=0, seed=3)
+        f = _weighing(nominal)
         f._theta = theta.copy()
         f.update(np.array([fx, 0.0, fz, 0.0, 0.0]), features)
         assert f.weights[winners].sum() > 0.99, (fz, f.weights[winners].sum())
@@ -139,7 +150,7 @@ def test_in_the_hole_a_particle_that_touches_at_all_is_in_contact() -> None:
     theta[:250, 0] = gap + 1e-7  # touching the wall along +x by 0.1 µm
     reading = np.array([-1.0, 0.0, 8 * Uncertainty().noise[2], 0.0, 0.0])
     for depth, touching_wins in ((3e-3, True), (ENTRY_DEPTH / 2, False)):
-        f = DeviationFilter(nominal, particles=500, anneal=0, seed=3)
+        f = _weighing(nominal)
         f._theta = theta.copy()
         features = np.array([0.0, 0.0, depth, 0.0, 0.0])
         pressed = nominal.response(f.true_features(features)[0])
@@ -170,10 +181,149 @@ def test_a_particles_stiffness_says_whether_its_touch_shows() -> None:
     theta[250:, 6] = np.log(1e11)
     features = np.array([0.0, 0.0, depth, 0.0, 0.0])
     for reading, winners in ((np.zeros(5), slice(None, 250)), (steel, slice(250, None))):
-        f = DeviationFilter(nominal, particles=500, anneal=0, seed=3)
+        f = _weighing(nominal)
         f._theta = theta.copy()
         f.update(reading, features)
         assert f.weights[winners].sum() > 0.99, (reading, f.weights[winners].sum())
+
+
+def test_a_light_touch_shows_in_the_lateral_force() -> None:
+    """3 mm in, half the cloud rests free in the clearance and half touches the wall so lightly
+    that its Fz is within the noise (μ times a lateral force of 0.2 N, four noise deviations).
+    Forty readings of that touch: the free half, which predicts no lateral force, loses; so does
+    the touching half on forty readings of nothing. A touching half with half the k (a
+    prediction half the reading, within MAGNITUDE_BAND) is as likely as the exact one. At the
+    entry (ENTRY_DEPTH), where the peg may rest on the top face, the lateral force says
+    nothing."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
+    nominal = sc.geometry
+    unc = Uncertainty()
+    gap = nominal.hole_radius - nominal.peg_radius
+    depth = 3e-3
+    dx = next(gap + d for d in np.geomspace(1e-10, 1e-5, 400)
+              if abs(nominal.response([gap + d, 0, depth, 0, 0])[0]) >= 0.2)
+    touch = nominal.response([dx, 0, depth, 0, 0])
+    assert touch[2] < CONTACT_SIGMAS * unc.noise[2] and abs(touch[0]) >= 0.2  # Fz does not show
+    free, touching = _cloud(nominal), _cloud(nominal)
+    touching[:, 0] = dx
+    softer = touching.copy()
+    softer[:, 6] -= np.log(2.0)
+    rng = np.random.default_rng(5)
+    readings = {"touch": touch + rng.normal(0.0, 1.0, (40, 5)) * unc.noise,
+                "nothing": rng.normal(0.0, 1.0, (40, 5)) * unc.noise}  # fmt: skip
+    for at, reading, first, second, share in (
+        (depth, "touch", free, touching, 0.0), (depth, "nothing", free, touching, 1.0),
+        (depth, "touch", softer, touching, 0.5), (ENTRY_DEPTH / 2, "touch", free, touching, 0.5),
+    ):  # fmt: skip
+        f = _weighing(nominal, unc)
+        f._theta = np.vstack([first[:250], second[:250]])
+        for w in readings[reading]:  # Fz kept within the noise's three deviations
+            f.update(np.where(np.arange(5) == 2, np.minimum(w, 0.1), w), [0, 0, at, 0, 0])
+        assert f.weights[:250].sum() == pytest.approx(share, abs=0.1 if share == 0.5 else 0.01), (
+            at, reading, f.weights[:250].sum())
+
+
+def test_moved_particles_stay_within_the_prior() -> None:
+    """Spread out again and again (a random walk), the particles keep to the prior's support:
+    the deviation ranges, μ's spread, the gap the tolerances allow and the stated k."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
+    nominal = sc.geometry
+    unc = Uncertainty()
+    f = DeviationFilter(nominal, unc, particles=500, seed=3)
+    for _ in range(200):
+        f._spread_out()
+    theta = f._theta
+    assert (np.abs(theta[:, :2]) <= unc.max_offset).all()
+    assert (np.abs(theta[:, 2:4]) <= unc.max_tilt).all()
+    mu = nominal.friction * np.array([1 - unc.friction, 1 + unc.friction])
+    assert (theta[:, 4] >= mu[0] - 1e-15).all() and (theta[:, 4] <= mu[1] + 1e-15).all()
+    assert (np.abs(theta[:, 5]) <= 2 * unc.radius).all()
+    assert np.allclose(theta[:, 6], np.log(nominal.stiffness))
+    assert (np.abs(theta[:, 5]) > 1.9 * unc.radius).any()  # the walk did reach the bound
+
+
+def test_a_cloud_that_one_particle_carries_is_resampled_around_it() -> None:
+    """All the weight on one particle (a sharp reading): the resampled cloud sits around it,
+    by the kernel's floor, finite."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
+    f = DeviationFilter(sc.geometry, particles=500, seed=3)
+    one = np.zeros(500)
+    one[7] = 1.0
+    chosen = f._theta[7].copy()
+    f._resample(one)
+    assert np.isfinite(f._theta).all()
+    assert (np.abs(f._theta[:, :2] - chosen[:2]) < 1e-6).all()  # within 10 floors (0.1 µm)
+
+
+@pytest.mark.parametrize("fz", [2.0, 0.02])  # a contact's Fz, and one within the noise
+def test_a_cloud_at_the_truth_is_not_surprised_by_noise(fz: float) -> None:
+    """A cloud at the hole's true deviation, fed noisy readings of its own response: its
+    surprise averages about zero (what the noise alone costs is what a particle at the truth
+    pays), in contact and, in the hole, in a light touch whose Fz is within the noise; it is
+    never redrawn."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
+    nominal = sc.geometry
+    unc = Uncertainty()
+    gap = nominal.hole_radius - nominal.peg_radius
+    depth = 4e-3
+    dx = next(gap + d for d in np.geomspace(1e-10, 1e-5, 400)
+              if nominal.response([gap + d, 0, depth, 0, 2e-4])[2] >= fz)
+    theta = _cloud(nominal)
+    theta[:, 0], theta[:, 3] = dx, 2e-4
+    f = DeviationFilter(nominal, unc, particles=500, anneal=0, seed=3)
+    f._theta = theta.copy()
+    features = np.array([0.0, 0.0, depth, 0.0, 0.0])
+    truth = nominal.response(f.true_features(features)[0])
+    rng = np.random.default_rng(8)
+    surprise = []
+    for _ in range(300):
+        reading = truth + rng.normal(0.0, 1.0, 5) * unc.noise
+        x = f.true_features(features)
+        predicted = nominal.response(x)
+        surprise.append(f.surprise(reading, depth, f._log_likelihood(reading, depth, predicted,
+                                                                     x[:, 2])))  # fmt: skip
+        f.update(reading, features)
+    assert abs(np.mean(surprise)) < 0.3, np.mean(surprise)
+    assert f.redraws == 0
+
+
+def test_a_lost_cloud_is_drawn_again() -> None:
+    """A cloud settled 4 µm and 0.4 mrad off the hole (each particle there), fed readings of the
+    true contact: every reading costs it more than the noise would cost the truth, and within
+    SURPRISE_MEMORY updates it is drawn again, with the full particle count, wider than a
+    spread-out, and then explains the readings as the truth does."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_interference.yaml"))
+    nominal = sc.geometry
+    unc = Uncertainty()
+    depth = 4e-3
+    true_dev = np.array([3e-6, -2e-6, 1e-4, -2e-4])
+    features = np.array([0.0, 0.0, depth, 0.0, 0.0])
+    f = DeviationFilter(nominal, unc, particles=2000, anneal=0, seed=3)
+    theta = _cloud(nominal, 2000)
+    theta[:, :4] = true_dev
+    f._theta = theta.copy()
+    truth = nominal.response(f.true_features(features)[0])
+    theta[:, :4] = true_dev + np.array([4e-6, -4e-6, 4e-4, 4e-4])  # lost
+    f._theta = theta[:500].copy()
+    f._table = f._table[:, :500].copy()
+    f._logw = np.zeros(500)
+    rng = np.random.default_rng(8)
+    for _ in range(SURPRISE_MEMORY):
+        f.update(truth + rng.normal(0.0, 1.0, 5) * unc.noise, features)
+        if f.redraws:
+            break
+    assert f.redraws == 1 and len(f._theta) == 2000, (f.redraws, len(f._theta))
+    surprise = []
+    for _ in range(100):
+        reading = truth + rng.normal(0.0, 1.0, 5) * unc.noise
+        x = f.true_features(features)
+        f._table[[0, 2, 3]] = (nominal.hole_radius + f._theta[:, 5], f._theta[:, 4],
+                               np.exp(f._theta[:, 6]))  # fmt: skip
+        predicted = ContactBatch(f._table, f._peg_top, nominal.n_angles).response(x)
+        surprise.append(f.surprise(reading, depth, f._log_likelihood(reading, depth, predicted,
+                                                                     x[:, 2])))  # fmt: skip
+        f.update(reading, features)
+    assert f.redraws == 1 and np.mean(surprise[50:]) > -0.5, (f.redraws, np.mean(surprise[50:]))
 
 
 def test_k_is_the_stated_one_or_drawn_over_a_stated_range() -> None:
