@@ -77,6 +77,15 @@ def _cloud(nominal: PegHole, n: int = 500) -> np.ndarray:
     return theta
 
 
+def _pressing(nominal: PegHole, depth: float, component: int, value: float,
+              tilt: float = 0.0) -> float:
+    """The hole's deviation along x at which the peg, ``depth`` in and tilted ``tilt`` about y,
+    first presses the wall so that the response's ``component`` reaches ``value``."""
+    gap = nominal.hole_radius - nominal.peg_radius
+    return next(gap + d for d in np.geomspace(1e-10, 1e-5, 800)  # type: ignore[no-any-return]
+                if abs(nominal.response([gap + d, 0, depth, 0, tilt])[component]) >= value)
+
+
 def _weighing(nominal: PegHole, unc: Uncertainty | None = None) -> DeviationFilter:
     """A filter of 500 particles, not annealed, that only weighs. Two halves of a cloud, one of
     which loses, leave an effective sample size of half, the resampling threshold, where
@@ -167,12 +176,9 @@ def test_a_particles_stiffness_says_whether_its_touch_shows() -> None:
     a thousandth of it, loses."""
     sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
     nominal = sc.geometry
-    gap = nominal.hole_radius - nominal.peg_radius
     depth = 3e-3
-    steel_at = nominal.replace(stiffness=1e11).response
-    dx = next(gap + d for d in np.geomspace(1e-10, 1e-6, 400)
-              if steel_at([gap + d, 0, depth, 0, 0])[2] >= 10.0)
-    steel = steel_at([dx, 0, depth, 0, 0])
+    dx = _pressing(nominal.replace(stiffness=1e11), depth, 2, 10.0)
+    steel = nominal.replace(stiffness=1e11).response([dx, 0, depth, 0, 0])
     soft = steel / 1e3  # the model is linear in k
     assert soft[2] < Uncertainty().noise[2] < 10.0 <= steel[2] < 11.0  # only steel shows
     theta = _cloud(nominal)
@@ -198,10 +204,8 @@ def test_a_light_touch_shows_in_the_lateral_force() -> None:
     sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
     nominal = sc.geometry
     unc = Uncertainty()
-    gap = nominal.hole_radius - nominal.peg_radius
     depth = 3e-3
-    dx = next(gap + d for d in np.geomspace(1e-10, 1e-5, 400)
-              if abs(nominal.response([gap + d, 0, depth, 0, 0])[0]) >= 0.2)
+    dx = _pressing(nominal, depth, 0, 0.2)
     touch = nominal.response([dx, 0, depth, 0, 0])
     assert touch[2] < CONTACT_SIGMAS * unc.noise[2] and abs(touch[0]) >= 0.2  # Fz does not show
     free, touching = _cloud(nominal), _cloud(nominal)
@@ -264,10 +268,8 @@ def test_a_cloud_at_the_truth_is_not_surprised_by_noise(fz: float) -> None:
     sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
     nominal = sc.geometry
     unc = Uncertainty()
-    gap = nominal.hole_radius - nominal.peg_radius
     depth = 4e-3
-    dx = next(gap + d for d in np.geomspace(1e-10, 1e-5, 400)
-              if nominal.response([gap + d, 0, depth, 0, 2e-4])[2] >= fz)
+    dx = _pressing(nominal, depth, 2, fz, tilt=2e-4)
     theta = _cloud(nominal)
     theta[:, 0], theta[:, 3] = dx, 2e-4
     f = DeviationFilter(nominal, unc, particles=500, anneal=0, seed=3)
