@@ -16,19 +16,18 @@ filter's hidden state is constant:
 
 with g the radial gap R − r off the nominal. Particles start uniform over the stated
 :class:`~fbcc_ros.core.control.contact_uncertainty.Uncertainty` (deviations ±range, μ ×(1 ± f),
-g ± 2·radius) and with k log-uniform over ``stiffness`` (default: the nominal k alone, the k
-the user states, :data:`MAGNITUDE_BAND` covering a part off it; :data:`UNKNOWN_STIFFNESS` for
-one nobody knows). Each update, every particle's true features give its predicted response
-(the contact model of eq. 5-13 with its μ, gap and k); the likelihood compares the indicators of
-both planes (u = F/Fz and σ, :func:`~fbcc_ros.core.contact.segmentation.normalised_coordinates`,
-in which k cancels) with a Cauchy kernel of the sensor's noise over Fz plus a model floor, Fz
-itself within a band (:data:`MAGNITUDE_BAND`), and "no contact" (an Fz within
-:data:`CONTACT_SIGMAS` deviations of the noise) with its Fz and, in the hole, its lateral force:
-a peg resting lightly against the wall reads Fx, Fy of a few noise deviations and μ times less
-in Fz, and only the lateral force, over many samples, tells it from a peg resting free. k is
-what decides whether a touch shows: a stiff part pressed by 0.01 µm reads newtons, a soft one
-nothing. For the first ``anneal``
-updates the log-likelihood is scaled up from 0: on the hole's top face a tilt and an offset read
+g ± 2·radius) and with k log-uniform over ``stiffness`` (default: the nominal k alone, the k the
+user states, a band of the likelihood covering a part off it; :data:`UNKNOWN_STIFFNESS` for one
+nobody knows). Each update, every particle's true features give its predicted response (the
+contact model of eq. 5-13 with its μ, gap and k), weighed by the measurement model of
+:mod:`~fbcc_ros.core.control.state_likelihood`: in contact, the indicators of both planes (u =
+F/Fz and σ, in which k cancels) with a Cauchy kernel of the sensor's noise over Fz plus a model
+floor, and Fz itself within a band; out of contact in Fz, whether a particle's Fz would show
+and, in the hole, the lateral force: a peg resting lightly against the wall reads Fx, Fy of a
+few noise deviations and μ times less in Fz, and only the lateral force, over many samples,
+tells it from a peg resting free. k is what decides whether a touch shows: a stiff part pressed
+by 0.01 µm reads newtons, a soft one nothing. For the first ``anneal`` updates the
+log-likelihood is scaled up from 0: on the hole's top face a tilt and an offset read
 alike, and an early full weighting can settle the cloud on the wrong one (without it, 1 of 4
 interference insertions ended 2 µm and 2.5 mrad off; over 50 updates, 1 of 4 ended 2.7 µm and 2.4
 mrad off; over 200, none of 12 did, each within 0.03 µm and 0.01 mrad). When the effective sample
@@ -74,51 +73,15 @@ from numpy.typing import ArrayLike
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.features import true_rows
 from fbcc_ros.core.contact.model import ContactBatch, PegHole, as_rows
-from fbcc_ros.core.contact.segmentation import (
-    FZ_MIN,
-    STATES,
-    direction_matrix,
-    normalised_coordinates,
-    plane_state_index,
-)
+from fbcc_ros.core.contact.segmentation import FZ_MIN, STATES, plane_state_index
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
+from fbcc_ros.core.control.state_likelihood import (
+    CONTACT_MISMATCH,
+    log_likelihood,
+    noise_misfit,
+)
 from fbcc_ros.core.errors import ConfigError
 
-#: Model floors of the likelihood's scale, in u and σ: what the contact model does not know
-#: (the part's k, the other radius, the plant's details) beyond the sensor's noise.
-U_FLOOR = 0.05
-SIGMA_FLOOR = 0.02
-#: Log-likelihood of a particle that predicts contact where there is none, or none where there is.
-CONTACT_MISMATCH = -30.0
-#: A sample is in contact when its Fz is over this many deviations of the sensor's Fz noise; a
-#: particle is at odds with a sample out of contact when its predicted Fz is over the measured
-#: one by as much. At one deviation, noise alone made 16 % of a free peg's samples look like
-#: contact, each a mismatch for every particle that put the peg free: on 56 clearance
-#: insertions (seeds 0, 2, 3) three deviations took the share named right at 1 and 10 GPa up
-#: by 3-10 points, at 0.184 GPa by -2 to +3, and left interference unchanged.
-CONTACT_SIGMAS = 3.0
-#: Deeper than this [m] in the hole a particle that overlaps at all is in contact (the ratios are
-#: free of k; :data:`MAGNITUDE_BAND` weighs a prediction too faint); shallower, only above
-#: FZ_MIN, where the peg may still rest on the top face, which the model does not describe.
-#: Measured when every particle had the nominal k: any overlap at every depth named 2-22 points
-#: more clearance states right on seeds 0, 2 and 3 but dropped the committed bag's YOZ from
-#: 0.58 to 0.17; from 0.5 mm on, the bag is unchanged, and seeds 2 and 3 gained 7-8 points at
-#: 1 GPa and 0-6 at 10 GPa with interference unchanged. With each particle's k and the Fz band
-#: (2026-11-26), any overlap at every depth: the state study (16 a case) -3 to +6.5 points on
-#: the clearance, -4 at interference 0.5 GPa under the hole (to 0.897), seed 2 within ±1.2,
-#: the bag 0.64 / 0.68; not clearly better, so the rule stays.
-ENTRY_DEPTH = 5e-4
-#: What a contact's Fz says of a particle: a prediction within this factor of the measured Fz is
-#: as likely as the measurement; beyond it, a Cauchy kernel in the log of the excess with scale
-#: the noise over Fz plus :data:`MAGNITUDE_FLOOR`. The band keeps to what the magnitude can
-#: tell, k's decade and whether a touch would show, not k times the overlap, which trades
-#: against the gap: without the band (floor 0.2; seed 0, 8 insertions a case) interference at
-#: 0.5 / 1 GPa fell from 0.947 / 0.928 named right to 0.916 / 0.862, with it 0.948 / 0.929.
-MAGNITUDE_BAND = 3.0
-MAGNITUDE_FLOOR = 0.2
-#: The scale of the lateral misfit when the stated noise is below it [N]: a noiseless sensor
-#: still resolves only so much.
-LATERAL_RESOLUTION = 1e-3
 #: The least μ a particle may carry (the prior's μ range may reach 0).
 MU_MIN = 0.01
 #: Liu and West's shrinkage: the kernel keeps the cloud's mean and spread.
@@ -141,11 +104,6 @@ JITTER_FLOOR = (1e-7, 1e-7, 1e-5, 1e-5, 1e-3, 3e-8, 0.01)
 LOST = -2.5
 SURPRISE_MEMORY = 40
 REDRAW = 5.0
-#: E[log(1 + z^2)] for a standard normal z: the Cauchy kernel's mean misfit on pure noise.
-_NOISE_MISFIT = 0.6352
-#: Gauss-Hermite nodes and weights (probabilists') for the mean of a function of a normal.
-_GH_Z, _GH_W = np.polynomial.hermite_e.hermegauss(40)
-_GH_W = _GH_W / _GH_W.sum()
 #: The ``stiffness`` range [Pa] for a part whose k is not known at all: what the package is built
 #: for, soft plastic to steel (docs/reproduction.md).
 UNKNOWN_STIFFNESS = (1e8, 1e11)
@@ -261,7 +219,7 @@ class DeviationFilter:
                                  loose=True).response(touching)
         self.updates += 1
         scale = min(1.0, self.updates / self.anneal) if self.anneal else 1.0
-        ll = self._log_likelihood(w[0], depth, predicted, touching[:, 2])
+        ll = log_likelihood(w[0], depth, predicted, touching[:, 2], self.nominal, self._noise)
         lost = False
         if self.updates > self.anneal:
             s = self.surprise(w[0], depth, ll)
@@ -284,65 +242,15 @@ class DeviationFilter:
         return probabilities
 
     def surprise(self, w: FloatArray, depth: float, ll: FloatArray) -> float:
-        """How much better (> 0) or worse (< 0) the cloud explains one sample (5,) than a particle
-        at the truth would on average [nats]: the log of the weighted mean likelihood, plus what
-        the sensor's noise alone costs under the same kernels. A cloud that has settled where the
-        hole is not pays tens of nats a sample where a right one pays its noise's."""
-        mean = float(np.log(self.weights @ np.exp(ll - ll.max()))) + float(ll.max())
-        if not w[2] > CONTACT_SIGMAS * self._noise[2]:
-            return mean + (2 * _NOISE_MISFIT if depth > ENTRY_DEPTH else 0.0)
-        fz = w[2]
-        # the indicators (u_x, σ_x, u_y, σ_y) = (A w) / Fz over the noise: their Jacobian in w
-        a = direction_matrix(depth, self.nominal)[[0, 4, 1, 3]]
-        indicators = a @ w / fz
-        jacobian = (a - np.outer(indicators, np.eye(5)[2])) / fz
-        noise = np.sqrt((jacobian**2) @ self._noise**2)
-        s_u = self._noise[0] / fz + U_FLOOR
-        s_s = self._noise[3] / (self.nominal.hole_radius * fz) + SIGMA_FLOOR
-        ratio = noise / np.array([s_u, s_s, s_u, s_s])  # each one's noise over its kernel's scale
-        noise_misfit = np.log1p(np.multiply.outer(ratio**2, _GH_Z**2)) @ _GH_W
-        return mean + float(noise_misfit.sum())
-
-    def _log_likelihood(self, w: FloatArray, measured_depth: float, predicted: FloatArray,
-                        depth: FloatArray) -> FloatArray:  # fmt: skip
-        """Cauchy in the indicators of both planes and in Fz beyond its band; a contact mismatch
-        is CONTACT_MISMATCH."""
-        seen = CONTACT_SIGMAS * self._noise[2]
-        if not w[2] > seen:  # no contact in Fz: a particle whose Fz would show is unlikely
-            ll = np.where(predicted[:, 2] > w[2] + seen, CONTACT_MISMATCH, 0.0)
-            if measured_depth > ENTRY_DEPTH:  # in the hole a light touch shows in Fx, Fy
-                ll -= self._lateral_misfit(w, predicted)
-            return ll  # type: ignore[no-any-return]
-        fz = w[2]
-        measured = np.array(normalised_coordinates(w[None], np.array([measured_depth]),
-                                                   self.nominal)).ravel()  # fmt: skip
-        with np.errstate(all="ignore"):
-            p = np.column_stack(normalised_coordinates(predicted, depth, self.nominal))
-        s_u = self._noise[0] / fz + U_FLOOR
-        s_s = self._noise[3] / (self.nominal.hole_radius * fz) + SIGMA_FLOOR
-        e = (p - measured) / np.array([s_u, s_s, s_u, s_s])
-        ll = -np.sum(np.log1p(e**2), axis=1)
-        with np.errstate(divide="ignore"):  # a particle out of contact: CONTACT_MISMATCH below
-            excess = np.abs(np.log(predicted[:, 2] / fz)) - math.log(MAGNITUDE_BAND)
-        e_fz = np.maximum(excess, 0.0) / (self._noise[2] / fz + MAGNITUDE_FLOOR)
-        ll -= np.log1p(e_fz**2)
-        floor = np.where(depth > ENTRY_DEPTH, 0.0, FZ_MIN)  # what predicts contact
-        return np.where(predicted[:, 2] > floor, ll, CONTACT_MISMATCH)  # type: ignore[no-any-return]
-
-    def _lateral_misfit(self, w: FloatArray, predicted: FloatArray) -> FloatArray:
-        """How badly each particle explains the lateral force (Fx, Fy) of a sample whose Fz is
-        within the noise: a Cauchy kernel of the sensor's noise on ``m - κ p`` (m measured, p
-        predicted, both over the noise), with κ the best factor within :data:`MAGNITUDE_BAND`
-        (what k's uncertainty allows). A particle that puts the peg free predicts p = 0 and
-        pays for all of m."""
-        noise = np.maximum(self._noise[:2], LATERAL_RESOLUTION)
-        m = w[:2] / noise
-        p = predicted[:, :2] / noise
-        pp = np.einsum("ij,ij->i", p, p)
-        kappa = np.clip(p @ m / np.where(pp > 0.0, pp, 1.0), 1.0 / MAGNITUDE_BAND,
-                        MAGNITUDE_BAND)  # fmt: skip
-        e = m - kappa[:, None] * p
-        return np.sum(np.log1p(e**2), axis=1)  # type: ignore[no-any-return]
+        """How much better (> 0) or worse (< 0) the cloud explains one sample (5,), whose
+        log-likelihood per particle is ``ll``, than a particle at the truth would on average
+        [nats]: the log of the weighted mean likelihood plus what the sensor's noise alone
+        costs (:func:`~fbcc_ros.core.control.state_likelihood.noise_misfit`). A cloud that has
+        settled where the hole is not pays tens of nats a sample where a right one pays its
+        noise's."""
+        top = float(ll.max())
+        mean = float(np.log(self.weights @ np.exp(ll - top))) + top
+        return mean + noise_misfit(w, depth, self.nominal, self._noise)
 
     def states(self, x: FloatArray) -> FloatArray:
         """The weighted vote of the particles' states at their true features x (P, 5), each

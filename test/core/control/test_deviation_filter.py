@@ -13,14 +13,13 @@ from fbcc_ros.core.contact.segmentation import FZ_MIN, STATES, feature_state
 from fbcc_ros.core.control.contact_state import most_probable
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.control.deviation_filter import (
-    CONTACT_SIGMAS,
-    ENTRY_DEPTH,
     SPREAD_OUT,
     SURPRISE_MEMORY,
     UNKNOWN_STIFFNESS,
     DeviationFilter,
     StateFeed,
 )
+from fbcc_ros.core.control.state_likelihood import CONTACT_SIGMAS, ENTRY_DEPTH, log_likelihood
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import simulate
@@ -282,8 +281,8 @@ def test_a_cloud_at_the_truth_is_not_surprised_by_noise(fz: float) -> None:
         reading = truth + rng.normal(0.0, 1.0, 5) * unc.noise
         x = f.true_features(features)
         predicted = nominal.response(x)
-        surprise.append(f.surprise(reading, depth, f._log_likelihood(reading, depth, predicted,
-                                                                     x[:, 2])))  # fmt: skip
+        ll = log_likelihood(reading, depth, predicted, x[:, 2], nominal, unc.noise)
+        surprise.append(f.surprise(reading, depth, ll))
         f.update(reading, features)
     assert abs(np.mean(surprise)) < 0.3, np.mean(surprise)
     assert f.redraws == 0
@@ -322,8 +321,8 @@ def test_a_lost_cloud_is_drawn_again() -> None:
         f._table[[0, 2, 3]] = (nominal.hole_radius + f._theta[:, 5], f._theta[:, 4],
                                np.exp(f._theta[:, 6]))  # fmt: skip
         predicted = ContactBatch(f._table, f._peg_top, nominal.n_angles).response(x)
-        surprise.append(f.surprise(reading, depth, f._log_likelihood(reading, depth, predicted,
-                                                                     x[:, 2])))  # fmt: skip
+        ll = log_likelihood(reading, depth, predicted, x[:, 2], nominal, unc.noise)
+        surprise.append(f.surprise(reading, depth, ll))
         f.update(reading, features)
     assert f.redraws == 1 and np.mean(surprise[50:]) > -0.5, (f.redraws, np.mean(surprise[50:]))
 
