@@ -4,12 +4,16 @@ how many scored samples rest free (true P0) or touch with less than 3 noise devi
 
     .venv/bin/python scripts/studies/filter_along.py --seed 3 --trials 32
     .venv/bin/python scripts/studies/filter_along.py --seed 0 --trials 8 --cases clearance:1e10
+    .venv/bin/python scripts/studies/filter_along.py --seed 5 --trials 32 --cases clearance:1e10 \
+        --per-insertion
 
 The insertions are those of ``fbcc-mapping-study --estimator`` (F/T under the hole): parts and
 deviations by ``state_study.drawn_insertions``, the filter as the controller runs it
-(``deviation_filter.along``, every 5th sample, seed ``trial``, told the case's k as the part's
-nominal one, or with ``--unknown-k`` nothing of it), scored where the peg is in the hole, both
-planes.
+(``deviation_filter.along``'s feed and filter, stepped here to watch it: every 5th sample, seed
+``trial``, told the case's k as the part's nominal one, or with ``--unknown-k`` nothing of it),
+scored where the peg is in the hole, both planes. ``--per-insertion`` adds a line per insertion:
+its share named right, the lowest running mean of the filter's surprise (``LOST`` and under:
+redrawn) and how often it was redrawn.
 """
 
 from __future__ import annotations
@@ -19,10 +23,10 @@ import time
 
 import numpy as np
 
-from fbcc_ros.core.contact.segmentation import feature_state
+from fbcc_ros.core.contact.segmentation import STATES, feature_state
 from fbcc_ros.core.control.contact_state import most_probable
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
-from fbcc_ros.core.control.deviation_filter import UNKNOWN_STIFFNESS, along
+from fbcc_ros.core.control.deviation_filter import UNKNOWN_STIFFNESS, DeviationFilter, StateFeed
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import simulate
 from fbcc_ros.core.sim.state_study import drawn_insertions
@@ -33,9 +37,11 @@ CASES = "clearance:1.84e8,clearance:1e9,clearance:1e10,interference:5e8,interfer
 FAINT = 3.0
 
 
-def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False) -> str:
-    """One line: the share named right, the CPU, the free and the faint shares. The filter is
-    told the part's k (to within the uncertainty's factor), or, ``unknown_k``, nothing of it."""
+def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
+         per_insertion: bool = False) -> str:  # fmt: skip
+    """The share named right, the CPU, the free and the faint shares; ``per_insertion``, first
+    a line per insertion. The filter is told the part's k (to within the uncertainty's
+    factor), or, ``unknown_k``, nothing of it."""
     sc = scenario_io.load(scenario_io.find(f"config/scenarios/robust_{fit}.yaml"))
     unc = Uncertainty()
     parts, dev = drawn_insertions(sc, unc, k, trials, seed)
@@ -43,25 +49,36 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False) ->
     assert traj is not None
     right = scored = free = faint = 0
     cpu = 0.0
+    lines = []
     for i in range(trials):
         x, w, pose = traj.features[:, i], traj.measured[:, i], traj.pose[:, i]
         start = time.process_time()
-        rows, p = along(pose, w, sc.geometry.replace(stiffness=k), 5, uncertainty=unc, seed=i,
-                        **({"stiffness": UNKNOWN_STIFFNESS} if unknown_k else {}))
+        feed = StateFeed(5)
+        rows = np.array([r for r in range(len(pose)) if feed.take(pose[r], w[r])], dtype=int)
+        filt = DeviationFilter(sc.geometry.replace(stiffness=k), unc, seed=i,
+                               **({"stiffness": UNKNOWN_STIFFNESS} if unknown_k else {}))
+        p, lowest = np.empty((len(rows), 2, len(STATES))), 0.0
+        for j, r in enumerate(rows):
+            p[j] = filt.update(w[r], pose[r])
+            lowest = min(lowest, filt.surprise_mean)
         cpu += time.process_time() - start
         named, _ = most_probable(p)
         inside = x[rows, 2] > 0
         truth = feature_state(x[rows[inside]], parts[i])
         force = np.linalg.norm(traj.response[rows[inside], i, :3], axis=1)
+        hits = sum(int((named[inside, plane] == truth[plane]).sum()) for plane in range(2))
         for plane in range(2):
-            right += int((named[inside, plane] == truth[plane]).sum())
             free += int((truth[plane] == "P0").sum())
             faint += int(((truth[plane] != "P0") & (force < FAINT * unc.noise[2])).sum())
+        right += hits
         scored += 2 * int(inside.sum())
-    return (f"{fit} {k / 1e9:g} GPa, seed {seed}, {trials} insertions: right "
-            f"{right / scored:.3f}, CPU {cpu / (trials * traj.t.size) * 1e6:.0f} µs a sample; "
-            f"of {scored} scored: free {free / scored:.2f}, touching under {FAINT:g} σ "
-            f"{faint / scored:.2f}")
+        lines.append(f"  insertion {i}: right {hits / (2 * inside.sum()):.2f}, lowest surprise "
+                     f"mean {lowest:.1f}, redrawn {filt.redraws}")
+    summary = (f"{fit} {k / 1e9:g} GPa, seed {seed}, {trials} insertions: right "
+               f"{right / scored:.3f}, CPU {cpu / (trials * traj.t.size) * 1e6:.0f} µs a sample; "
+               f"of {scored} scored: free {free / scored:.2f}, touching under {FAINT:g} σ "
+               f"{faint / scored:.2f}")
+    return "\n".join([*lines, summary] if per_insertion else [summary])
 
 
 def main() -> None:
@@ -71,6 +88,8 @@ def main() -> None:
     parser.add_argument("--cases", default=CASES, help=f"fit:k[Pa],... (default {CASES})")
     parser.add_argument("--unknown-k", action="store_true",
                         help="the filter is not told k (a prior over UNKNOWN_STIFFNESS)")
+    parser.add_argument("--per-insertion", action="store_true",
+                        help="a line per insertion: right, lowest surprise mean, redraws")
     args = parser.parse_args()
     if args.trials < 1 or args.seed < 0:
         parser.error(f"--trials {args.trials} --seed {args.seed}: expected >= 1 and >= 0")
@@ -78,7 +97,8 @@ def main() -> None:
         fit, _, k = item.partition(":")
         if fit not in ("clearance", "interference"):
             parser.error(f"--cases {item!r}: expected clearance:k or interference:k")
-        print(case(fit, float(k), args.trials, args.seed, args.unknown_k), flush=True)
+        print(case(fit, float(k), args.trials, args.seed, args.unknown_k, args.per_insertion),
+              flush=True)
 
 
 if __name__ == "__main__":

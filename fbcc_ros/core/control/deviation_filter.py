@@ -172,7 +172,8 @@ class DeviationFilter:
         #: how often a contradicted cloud was spread out, and a lost one drawn again
         self.spread_outs = self.redraws = 0
         self._particles = n
-        self._surprise = 0.0  # its mean over SURPRISE_MEMORY updates
+        #: the surprise's running mean over SURPRISE_MEMORY updates (LOST and under: redrawn)
+        self.surprise_mean = 0.0
         self._table = np.tile(np.array([[nominal.hole_radius], [nominal.peg_radius],
                                         [nominal.friction], [nominal.stiffness],
                                         [nominal.hole_depth], [nominal.base_thickness],
@@ -220,12 +221,12 @@ class DeviationFilter:
         self.updates += 1
         scale = min(1.0, self.updates / self.anneal) if self.anneal else 1.0
         ll = log_likelihood(w[0], depth, predicted, touching[:, 2], self.nominal, self._noise)
-        lost = False
-        if self.updates > self.anneal:
+        annealed = self.updates > self.anneal
+        if annealed:
             s = self.surprise(w[0], depth, ll)
-            self._surprise += (s - self._surprise) / SURPRISE_MEMORY
-            lost = self._surprise < LOST
-        if ll.max() <= CONTACT_MISMATCH and self.updates > self.anneal:
+            self.surprise_mean += (s - self.surprise_mean) / SURPRISE_MEMORY
+        lost = annealed and self.surprise_mean < LOST
+        if ll.max() <= CONTACT_MISMATCH and annealed:
             # every particle says contact where there is none (or none where there is): the
             # cloud is wrong, and its weights cannot say where; it is spread out again
             self._spread_out()
@@ -263,23 +264,25 @@ class DeviationFilter:
             np.add.at(out[plane], index, weights)
         return out
 
-    def _spread_out(self) -> None:
-        """Every particle moved by a draw of SPREAD_OUT, the weights made equal (module doc)."""
-        self._theta += self._rng.normal(0.0, SPREAD_OUT, self._theta.shape)
+    def _scatter(self, times: float) -> None:
+        """Every particle moved by a draw of ``times`` SPREAD_OUT, within the prior, the weights
+        made equal."""
+        self._theta += self._rng.normal(0.0, times * np.asarray(SPREAD_OUT), self._theta.shape)
         self._keep_in_prior()
         self._logw = np.zeros(len(self._theta))
+
+    def _spread_out(self) -> None:
+        """A contradicted cloud spread out by SPREAD_OUT (module doc)."""
+        self._scatter(1.0)
         self.spread_outs += 1
 
     def _redraw(self, weights: FloatArray) -> None:
-        """A lost cloud drawn again: the full particle count from its weights, each moved by
-        REDRAW times SPREAD_OUT, weighed afresh."""
-        index = self._rng.choice(len(weights), self._particles, p=weights)
-        move = self._rng.normal(0.0, REDRAW * np.asarray(SPREAD_OUT), (self._particles, 7))
-        self._theta = self._theta[index] + move
-        self._keep_in_prior()
+        """A lost cloud drawn again: the full particle count from its weights, scattered by
+        REDRAW times SPREAD_OUT (module doc)."""
+        self._theta = self._theta[self._rng.choice(len(weights), self._particles, p=weights)]
         self._table = np.tile(self._table[:, :1], (1, self._particles))
-        self._logw = np.zeros(self._particles)
-        self._surprise = 0.0
+        self._scatter(REDRAW)
+        self.surprise_mean = 0.0
         self.redraws += 1
 
     def _resample(self, weights: FloatArray) -> None:
