@@ -101,6 +101,118 @@ def plane_state_index(
     return np.where(inside, STATES.index("P0"), index)  # type: ignore[no-any-return]
 
 
+def plane_state_probabilities(
+    offset: FloatArray,
+    tilt: FloatArray,
+    depth: FloatArray,
+    hole_radius: float | FloatArray,
+    peg_radius: float,
+    offset_spread: float,
+    tilt_spread: float,
+) -> FloatArray:
+    """P(state) of one plane, shape (N, 9) over :data:`STATES`, for features known to within a
+    normal spread: offset ~ N(offset, offset_spread²), tilt ~ N(tilt, tilt_spread²), both > 0,
+    independent; the bands as :func:`plane_state_index`'s. Eq. 15's no-contact region,
+    |offset| <= m with m = R - r cos(θ) - l |sin(θ)| / 2, is taken at the tilt given (at 10 mm
+    deep a tilt spread of 0.03 mrad would move m by 0.15 µm)."""
+    inside, tilt_sign, offset_sign = _state_factors(offset, tilt, depth, hole_radius, peg_radius,
+                                                    offset_spread, tilt_spread)  # fmt: skip
+    out = np.zeros((len(inside), len(STATES)))
+    out[:, STATES.index("P0")] = inside
+    for i in range(3):
+        for j in range(3):
+            out[:, STATE_INDEX[i, j]] += tilt_sign[:, i] * offset_sign[:, j]
+    return out
+
+
+def plane_state_vote(
+    weights: FloatArray,
+    offset: FloatArray,
+    tilt: FloatArray,
+    depth: FloatArray,
+    hole_radius: float | FloatArray,
+    peg_radius: float,
+    offset_spread: float,
+    tilt_spread: float,
+) -> FloatArray:
+    """``weights @ plane_state_probabilities(...)``, shape (9,), without the (N, 9) table (the
+    deviation filter's vote, at every update)."""
+    inside, tilt_sign, offset_sign = _state_factors(offset, tilt, depth, hole_radius, peg_radius,
+                                                    offset_spread, tilt_spread)  # fmt: skip
+    out = np.zeros(len(STATES))
+    _weighted_joint(np.ascontiguousarray(weights, dtype=float), tilt_sign, offset_sign,
+                    STATE_INDEX, out)  # fmt: skip
+    out[STATES.index("P0")] += weights @ inside
+    return out
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def _weighted_joint(weights: FloatArray, tilt_sign: FloatArray, offset_sign: FloatArray,
+                    index: NDArray[np.int64], out: FloatArray) -> None:  # fmt: skip
+    """out[state of (tilt sign, offset sign)] += Σ weight · P(tilt sign) · P(offset sign)."""
+    for n in range(weights.shape[0]):
+        for i in range(3):
+            wt = weights[n] * tilt_sign[n, i]
+            if wt != 0.0:
+                for j in range(3):
+                    out[index[i, j]] += wt * offset_sign[n, j]
+
+
+def _state_factors(
+    offset: FloatArray,
+    tilt: FloatArray,
+    depth: FloatArray,
+    hole_radius: float | FloatArray,
+    peg_radius: float,
+    offset_spread: float,
+    tilt_spread: float,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """P(in eq. 15's no-contact region) (N,), and P(sign -1, 0, +1) of the tilt and, outside
+    the region, of the offset, both (N, 3) (:func:`plane_state_probabilities`)."""
+    d = np.ascontiguousarray(offset, dtype=float)
+    rows = (len(d),)
+    t = np.ascontiguousarray(np.broadcast_to(tilt, rows), dtype=float)
+    l = np.ascontiguousarray(np.broadcast_to(depth, rows), dtype=float)
+    hole = np.ascontiguousarray(np.broadcast_to(hole_radius, rows), dtype=float)
+    inside, tilt_sign, offset_sign = np.empty(rows), np.empty((*rows, 3)), np.empty((*rows, 3))
+    _factor_rows(d, t, l, hole, float(peg_radius), float(offset_spread), float(tilt_spread),
+                 inside, tilt_sign, offset_sign)  # fmt: skip
+    return inside, tilt_sign, offset_sign
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def _factor_rows(d: FloatArray, t: FloatArray, l: FloatArray, hole: FloatArray, peg: float,
+                 sd: float, st: float, inside: FloatArray, tilt_sign: FloatArray,
+                 offset_sign: FloatArray) -> None:  # fmt: skip
+    """:func:`_state_factors` row by row."""
+    for i in range(d.shape[0]):
+        tilt_sign[i, 0] = _normal_cdf((-TILT_TOL - t[i]) / st)
+        tilt_sign[i, 2] = _normal_cdf((t[i] - TILT_TOL) / st)
+        tilt_sign[i, 1] = 1.0 - tilt_sign[i, 0] - tilt_sign[i, 2]
+        margin = -math.inf  # |d| <= margin: no contact (eq. 15); none for an interference fit
+        if peg < hole[i]:
+            margin = hole[i] - peg * math.cos(t[i]) - l[i] * abs(math.sin(t[i])) / 2.0
+        m = max(margin, 0.0)
+        inside[i] = _normal_cdf((m - d[i]) / sd) - _normal_cdf((-m - d[i]) / sd)
+        # outside the region the offset's sign is beyond the wider of its band and the margin
+        cut = max(margin, OFFSET_TOL)
+        offset_sign[i, 0] = _normal_cdf((-cut - d[i]) / sd)
+        offset_sign[i, 2] = _normal_cdf((d[i] - cut) / sd)
+        # OFFSET_TOL >= |offset| > margin
+        offset_sign[i, 1] = max(1.0 - inside[i] - offset_sign[i, 0] - offset_sign[i, 2], 0.0)
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def _normal_cdf(z: float) -> float:
+    """Φ(z); exactly 0 or 1 beyond 9 deviations (under 1e-18 off), where most of a wide
+    cloud's particles are, without the call."""
+    if z < -9.0:
+        return 0.0
+    if z > 9.0:
+        return 1.0
+    return 0.5 * math.erfc(-z / math.sqrt(2.0))
+
+
 def _plane_feature_state(
     offset: FloatArray,
     tilt: FloatArray,

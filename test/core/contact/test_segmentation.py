@@ -13,9 +13,14 @@ from fbcc_ros.core.contact.mapping_study import classify_study, sample_features
 from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.contact.segmentation import (
     OFFSET_BAND,
+    OFFSET_TOL,
+    STATE_INDEX,
     STATES,
+    TILT_TOL,
     feature_state,
     normalised_coordinates,
+    plane_state_index,
+    plane_state_probabilities,
     response_state,
 )
 from fbcc_ros.core.errors import ConfigError, InputError
@@ -194,3 +199,32 @@ def test_classifier_answers_for_every_finite_input(resp, depth) -> None:
 def test_feature_classifier_answers_for_every_finite_input(f) -> None:
     xoz, yoz = feature_state(np.array(f), paper_pair("clearance"))
     assert xoz in STATES and yoz in STATES
+
+
+@pytest.mark.parametrize(("hole", "peg"), [(5.01e-3, 5e-3), (5e-3, 5.005e-3)],
+                         ids=["clearance", "interference"])  # fmt: skip
+def test_state_probabilities_are_the_states_of_spread_features(hole: float, peg: float) -> None:
+    """P(state) of features known to within a spread equals the share of the states of draws
+    around them (4000 each; the no-contact region at the tilt given), and a vanishing spread
+    names plane_state_index's state."""
+    rng = np.random.default_rng(0)
+    n, draws, spread = 300, 4000, (3e-7, 3e-5)
+    d, t = rng.uniform(-12e-6, 12e-6, n), rng.uniform(-5e-4, 5e-4, n)
+    depth = rng.uniform(0.0, 1e-2, n)
+    p = plane_state_probabilities(d, t, depth, hole, peg, *spread)
+    reach = depth * np.abs(np.sin(t)) / 2 + peg * np.cos(t)  # eq. (15) at the tilt given
+    shares = np.zeros((n, len(STATES)))
+    for _ in range(draws):
+        dd, tt = d + rng.normal(0.0, spread[0], n), t + rng.normal(0.0, spread[1], n)
+        index = STATE_INDEX[_sign(tt, TILT_TOL) + 1, _sign(dd, OFFSET_TOL) + 1]
+        free = (peg < hole) & (np.abs(dd) + reach <= hole)
+        shares[np.arange(n), np.where(free, STATES.index("P0"), index)] += 1.0 / draws
+    np.testing.assert_allclose(p.sum(axis=1), 1.0, atol=1e-12)
+    assert np.abs(p - shares).max() < 0.035  # 4 standard errors of a share of 4000 draws
+    sharp = plane_state_probabilities(d, t, depth, hole, peg, 1e-15, 1e-15)
+    np.testing.assert_array_equal(sharp.argmax(axis=1), plane_state_index(d, t, depth, hole, peg))
+    assert sharp.max(axis=1).min() == 1.0
+
+
+def _sign(x: np.ndarray, band: float) -> np.ndarray:
+    return np.where(x > band, 1, np.where(x < -band, -1, 0))

@@ -5,14 +5,17 @@ what it states as near-certain is right; bad settings are refused."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
 from fbcc_ros.core.contact.model import ContactBatch, PegHole
-from fbcc_ros.core.contact.segmentation import FZ_MIN, STATES, feature_state
+from fbcc_ros.core.contact.segmentation import FZ_MIN, OFFSET_TOL, STATES, feature_state
 from fbcc_ros.core.control.contact_state import most_probable
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.control.deviation_filter import (
+    READOUT_SPREAD,
     SPREAD_OUT,
     SURPRISE_MEMORY,
     UNKNOWN_STIFFNESS,
@@ -256,6 +259,24 @@ def test_a_cloud_that_one_particle_carries_is_resampled_around_it() -> None:
     f._resample(one)
     assert np.isfinite(f._theta).all()
     assert (np.abs(f._theta[:, :2] - chosen[:2]) < 1e-6).all()  # within 10 floors (0.1 µm)
+
+
+def test_a_cloud_sure_of_features_near_a_band_states_them_with_the_readout_spread() -> None:
+    """Every particle at one deviation that puts the peg's offset 0.2 µm past the 1 µm band
+    (tilted, touching): the cloud states D1 with P(offset > 1 µm) under READOUT_SPREAD, about
+    0.75, and the rest D0, not 1.0; far from the band, it is sure."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_interference.yaml"))
+    f = DeviationFilter(sc.geometry, particles=500, seed=3)
+    f._theta = _cloud(sc.geometry)
+    x = np.tile([1.2e-6, 0.0, 5e-3, 0.0, 0.01], (500, 1))  # dx, dy, l, θx, θy
+    p = f.states(x)
+    spread = READOUT_SPREAD[0]
+    expected = 0.5 * math.erfc((OFFSET_TOL - 1.2e-6) / (spread * math.sqrt(2)))  # P(dx > 1 µm)
+    assert p[0, STATES.index("D1")] == pytest.approx(expected, abs=1e-9)
+    assert 0.7 < expected < 0.8
+    assert p[0, STATES.index("D0")] == pytest.approx(1 - expected, abs=1e-9)
+    x[:, 0] = 5e-6
+    assert f.states(x)[0, STATES.index("D1")] == pytest.approx(1.0, abs=1e-9)
 
 
 @pytest.mark.parametrize("fz", [2.0, 0.02])  # a contact's Fz, and one within the noise
