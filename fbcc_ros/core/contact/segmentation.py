@@ -27,6 +27,7 @@ Boundary mapping (DESIGN §5 on eq. 21, 24, 28-29). In the normalised plane of F
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -101,49 +102,33 @@ def plane_state_index(
     return np.where(inside, STATES.index("P0"), index)  # type: ignore[no-any-return]
 
 
-def plane_state_probabilities(
-    offset: FloatArray,
-    tilt: FloatArray,
-    depth: FloatArray,
-    hole_radius: float | FloatArray,
-    peg_radius: float,
-    offset_spread: float,
-    tilt_spread: float,
-) -> FloatArray:
-    """P(state) of one plane, shape (N, 9) over :data:`STATES`, for features known to within a
-    normal spread: offset ~ N(offset, offset_spread²), tilt ~ N(tilt, tilt_spread²), both > 0,
-    independent; the bands as :func:`plane_state_index`'s. Eq. 15's no-contact region,
-    |offset| <= m with m = R - r cos(θ) - l |sin(θ)| / 2, is taken at the tilt given (at 10 mm
-    deep a tilt spread of 0.03 mrad would move m by 0.15 µm)."""
-    inside, tilt_sign, offset_sign = _state_factors(offset, tilt, depth, hole_radius, peg_radius,
-                                                    offset_spread, tilt_spread)  # fmt: skip
-    out = np.zeros((len(inside), len(STATES)))
-    out[:, STATES.index("P0")] = inside
-    for i in range(3):
-        for j in range(3):
-            out[:, STATE_INDEX[i, j]] += tilt_sign[:, i] * offset_sign[:, j]
-    return out
+class SpreadStates(NamedTuple):
+    """The states of one plane's features known to within a normal spread
+    (:func:`spread_states`), per row: P(in eq. 15's no-contact region) (N,), and P(sign -1, 0,
+    +1) of the tilt and, outside the region, of the offset, both (N, 3). The two signs are
+    independent."""
 
+    inside: FloatArray
+    tilt_sign: FloatArray
+    offset_sign: FloatArray
 
-def plane_state_vote(
-    weights: FloatArray,
-    offset: FloatArray,
-    tilt: FloatArray,
-    depth: FloatArray,
-    hole_radius: float | FloatArray,
-    peg_radius: float,
-    offset_spread: float,
-    tilt_spread: float,
-) -> FloatArray:
-    """``weights @ plane_state_probabilities(...)``, shape (9,), without the (N, 9) table (the
-    deviation filter's vote, at every update)."""
-    inside, tilt_sign, offset_sign = _state_factors(offset, tilt, depth, hole_radius, peg_radius,
-                                                    offset_spread, tilt_spread)  # fmt: skip
-    out = np.zeros(len(STATES))
-    _weighted_joint(np.ascontiguousarray(weights, dtype=float), tilt_sign, offset_sign,
-                    STATE_INDEX, out)  # fmt: skip
-    out[STATES.index("P0")] += weights @ inside
-    return out
+    def probabilities(self) -> FloatArray:
+        """P(state) per row, shape (N, 9) over :data:`STATES`."""
+        out = np.zeros((len(self.inside), len(STATES)))
+        out[:, STATES.index("P0")] = self.inside
+        for i in range(3):
+            for j in range(3):
+                out[:, STATE_INDEX[i, j]] += self.tilt_sign[:, i] * self.offset_sign[:, j]
+        return out
+
+    def vote(self, weights: FloatArray) -> FloatArray:
+        """``weights @ probabilities()``, shape (9,), without the (N, 9) table (the deviation
+        filter's vote, at every update)."""
+        out = np.zeros(len(STATES))
+        _weighted_joint(np.ascontiguousarray(weights, dtype=float), self.tilt_sign,
+                        self.offset_sign, STATE_INDEX, out)  # fmt: skip
+        out[STATES.index("P0")] += weights @ self.inside
+        return out
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
@@ -158,7 +143,7 @@ def _weighted_joint(weights: FloatArray, tilt_sign: FloatArray, offset_sign: Flo
                     out[index[i, j]] += wt * offset_sign[n, j]
 
 
-def _state_factors(
+def spread_states(
     offset: FloatArray,
     tilt: FloatArray,
     depth: FloatArray,
@@ -166,9 +151,12 @@ def _state_factors(
     peg_radius: float,
     offset_spread: float,
     tilt_spread: float,
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """P(in eq. 15's no-contact region) (N,), and P(sign -1, 0, +1) of the tilt and, outside
-    the region, of the offset, both (N, 3) (:func:`plane_state_probabilities`)."""
+) -> SpreadStates:
+    """The states of one plane for features known to within a normal spread: offset ~
+    N(offset, offset_spread²), tilt ~ N(tilt, tilt_spread²), both > 0, independent; the bands
+    as :func:`plane_state_index`'s. Eq. 15's no-contact region, |offset| <= m with
+    m = R - r cos(θ) - l |sin(θ)| / 2, is taken at the tilt given (at 10 mm deep a tilt spread
+    of 0.03 mrad would move m by 0.15 µm)."""
     d = np.ascontiguousarray(offset, dtype=float)
     rows = (len(d),)
     t = np.ascontiguousarray(np.broadcast_to(tilt, rows), dtype=float)
@@ -177,14 +165,14 @@ def _state_factors(
     inside, tilt_sign, offset_sign = np.empty(rows), np.empty((*rows, 3)), np.empty((*rows, 3))
     _factor_rows(d, t, l, hole, float(peg_radius), float(offset_spread), float(tilt_spread),
                  inside, tilt_sign, offset_sign)  # fmt: skip
-    return inside, tilt_sign, offset_sign
+    return SpreadStates(inside, tilt_sign, offset_sign)
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
 def _factor_rows(d: FloatArray, t: FloatArray, l: FloatArray, hole: FloatArray, peg: float,
                  sd: float, st: float, inside: FloatArray, tilt_sign: FloatArray,
                  offset_sign: FloatArray) -> None:  # fmt: skip
-    """:func:`_state_factors` row by row."""
+    """:func:`spread_states` row by row."""
     for i in range(d.shape[0]):
         tilt_sign[i, 0] = _normal_cdf((-TILT_TOL - t[i]) / st)
         tilt_sign[i, 2] = _normal_cdf((t[i] - TILT_TOL) / st)

@@ -59,7 +59,7 @@ count from its weights, :data:`REDRAW` times wider than a spread-out, weighed af
 The state per plane is the particles' weighted vote of their states at their true features,
 each particle with its own gap (the clearance's no-contact region) and its features read as
 known to within :data:`READOUT_SPREAD`
-(:func:`~fbcc_ros.core.contact.segmentation.plane_state_vote`): a cloud that has
+(:func:`~fbcc_ros.core.contact.segmentation.spread_states`): a cloud that has
 weighed hundreds of samples of a peg resting still is surer of its features than the model
 resolves them, and near a state's band it would state 1.0 for either side.
 """
@@ -76,7 +76,7 @@ from numpy.typing import ArrayLike
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.features import true_rows
 from fbcc_ros.core.contact.model import ContactBatch, PegHole, as_rows
-from fbcc_ros.core.contact.segmentation import FZ_MIN, STATES, plane_state_vote
+from fbcc_ros.core.contact.segmentation import FZ_MIN, STATES, spread_states
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.control.state_likelihood import (
     CONTACT_MISMATCH,
@@ -268,8 +268,8 @@ class DeviationFilter:
         with its own gap, each read with the features known to within READOUT_SPREAD."""
         weights = self.weights
         hole = self.nominal.hole_radius + self._theta[:, 5]
-        return np.array([plane_state_vote(weights, d, t, x[:, 2], hole, self.nominal.peg_radius,
-                                          *READOUT_SPREAD)
+        return np.array([spread_states(d, t, x[:, 2], hole, self.nominal.peg_radius,
+                                       *READOUT_SPREAD).vote(weights)
                          for d, t in ((x[:, 0], x[:, 4]), (x[:, 1], x[:, 3]))])  # fmt: skip
 
     def _scatter(self, times: float) -> None:

@@ -20,8 +20,8 @@ from fbcc_ros.core.contact.segmentation import (
     feature_state,
     normalised_coordinates,
     plane_state_index,
-    plane_state_probabilities,
     response_state,
+    spread_states,
 )
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.paper import paper_pair
@@ -205,13 +205,16 @@ def test_feature_classifier_answers_for_every_finite_input(f) -> None:
                          ids=["clearance", "interference"])  # fmt: skip
 def test_state_probabilities_are_the_states_of_spread_features(hole: float, peg: float) -> None:
     """P(state) of features known to within a spread equals the share of the states of draws
-    around them (4000 each; the no-contact region at the tilt given), and a vanishing spread
-    names plane_state_index's state."""
+    around them (4000 each; the no-contact region at the tilt given), its weighted vote the
+    weighted sum, and a vanishing spread names plane_state_index's state."""
     rng = np.random.default_rng(0)
     n, draws, spread = 300, 4000, (3e-7, 3e-5)
     d, t = rng.uniform(-12e-6, 12e-6, n), rng.uniform(-5e-4, 5e-4, n)
     depth = rng.uniform(0.0, 1e-2, n)
-    p = plane_state_probabilities(d, t, depth, hole, peg, *spread)
+    states = spread_states(d, t, depth, hole, peg, *spread)
+    p = states.probabilities()
+    weights = rng.uniform(0.0, 1.0, n)
+    np.testing.assert_allclose(states.vote(weights), weights @ p, atol=1e-12)
     reach = depth * np.abs(np.sin(t)) / 2 + peg * np.cos(t)  # eq. (15) at the tilt given
     shares = np.zeros((n, len(STATES)))
     for _ in range(draws):
@@ -221,7 +224,7 @@ def test_state_probabilities_are_the_states_of_spread_features(hole: float, peg:
         shares[np.arange(n), np.where(free, STATES.index("P0"), index)] += 1.0 / draws
     np.testing.assert_allclose(p.sum(axis=1), 1.0, atol=1e-12)
     assert np.abs(p - shares).max() < 0.035  # 4 standard errors of a share of 4000 draws
-    sharp = plane_state_probabilities(d, t, depth, hole, peg, 1e-15, 1e-15)
+    sharp = spread_states(d, t, depth, hole, peg, 1e-15, 1e-15).probabilities()
     np.testing.assert_array_equal(sharp.argmax(axis=1), plane_state_index(d, t, depth, hole, peg))
     assert sharp.max(axis=1).min() == 1.0
 
