@@ -93,6 +93,14 @@ SHRINK = 0.98
 #: ``converged_particles`` carry it (measured on 8 interference insertions: 0.946 of the states
 #: right with 500 after convergence, as with 4000 throughout, in 1.4 s of CPU instead of 4.8).
 CONVERGED = (2e-6, 2e-4)
+#: Until the cloud has converged (more than ``converged_particles`` carry it) the contact model
+#: runs at this many angles instead of the nominal's (48 by default): the cloud is then
+#: microns to tens of microns wide and the likelihood annealed. Along the state study's
+#: insertions (under the hole, seeds 0, 2, 3, 5 at 16 a case) it cost 18-27 % less CPU, and
+#: the share named right moved by +0.4 / -0.3 / 0 points on the clearance (0.184 / 1 / 10 GPa)
+#: and +0.1 / 0 on the interference (0.5 / 1 GPa), single cases by up to ±3 (the filter's own
+#: randomness).
+WIDE_ANGLES = 24
 #: How far a cloud that every particle of it contradicts is spread out (dx, dy, θx, θy, μ, g,
 #: ln k): a standard deviation of the size at which a cloud counts as converged
 #: (:data:`CONVERGED`), a tenth of the friction's nominal spread, 2 µm of gap, and k ×e^±0.3.
@@ -226,7 +234,10 @@ class DeviationFilter:
         self._table[0] = self.nominal.hole_radius + self._theta[:, 5]
         self._table[2] = self._theta[:, 4]
         self._table[3] = np.exp(self._theta[:, 6])
-        predicted = ContactBatch(self._table, self._peg_top, self.nominal.n_angles,
+        angles = self.nominal.n_angles
+        if len(self._theta) > self.converged_particles:  # not converged: a coarser model
+            angles = min(angles, WIDE_ANGLES)
+        predicted = ContactBatch(self._table, self._peg_top, angles,
                                  loose=True).response(touching)
         self.updates += 1
         scale = min(1.0, self.updates / self.anneal) if self.anneal else 1.0
