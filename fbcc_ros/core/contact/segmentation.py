@@ -157,6 +157,8 @@ def spread_states(
     as :func:`plane_state_index`'s. Eq. 15's no-contact region, |offset| <= m with
     m = R - r cos(θ) - l |sin(θ)| / 2, is taken at the tilt given (at 10 mm deep a tilt spread
     of 0.03 mrad would move m by 0.15 µm)."""
+    if not (offset_spread > 0 and tilt_spread > 0):
+        raise ConfigError("spread", [offset_spread, tilt_spread], "offset and tilt spreads > 0")
     d = np.ascontiguousarray(offset, dtype=float)
     rows = (len(d),)
     t = np.ascontiguousarray(np.broadcast_to(tilt, rows), dtype=float)

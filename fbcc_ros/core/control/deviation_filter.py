@@ -19,7 +19,8 @@ with g the radial gap R − r off the nominal. Particles start uniform over the 
 g ± 2·radius) and with k log-uniform over ``stiffness`` (default: the nominal k alone, the k the
 user states, a band of the likelihood covering a part off it; :data:`UNKNOWN_STIFFNESS` for one
 nobody knows). Each update, every particle's true features give its predicted response (the
-contact model of eq. 5-13 with its μ, gap and k), weighed by the measurement model of
+contact model of eq. 5-13 with its μ, gap and k; at :data:`WIDE_ANGLES` angles until the
+cloud has converged), weighed by the measurement model of
 :mod:`~fbcc_ros.core.control.state_likelihood`: in contact, the indicators of both planes (u =
 F/Fz and σ, in which k cancels) with a Cauchy kernel of the sensor's noise over Fz plus a model
 floor, and Fz itself within a band; out of contact in Fz, whether a particle's Fz would show

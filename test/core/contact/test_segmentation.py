@@ -229,5 +229,11 @@ def test_state_probabilities_are_the_states_of_spread_features(hole: float, peg:
     assert sharp.max(axis=1).min() == 1.0
 
 
+@pytest.mark.parametrize("spread", [(0.0, 3e-5), (3e-7, -1.0), (float("nan"), 3e-5)])
+def test_state_probabilities_need_a_spread(spread: tuple) -> None:
+    with pytest.raises(ConfigError, match="spread"):
+        spread_states(np.zeros(3), np.zeros(3), np.zeros(3), 5.01e-3, 5e-3, *spread)
+
+
 def _sign(x: np.ndarray, band: float) -> np.ndarray:
     return np.where(x > band, 1, np.where(x < -band, -1, 0))
