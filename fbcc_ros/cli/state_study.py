@@ -21,7 +21,7 @@ from fbcc_ros.core.contact.segmentation import STATES
 from fbcc_ros.core.control.contact_state import ContactStateEstimator
 from fbcc_ros.core.control.contact_uncertainty import MAGNITUDES
 from fbcc_ros.core.sim import scenario as scenario_io
-from fbcc_ros.core.sim.state_study import drawn_study, trajectory_study
+from fbcc_ros.core.sim.state_study import calibration_text, drawn_study, trajectory_study
 
 #: The insertions' stiffnesses [Pa] per fit: the calibrated ABS, and stiffer ones the robust law
 #: assembles (interference up to where the push-in stays within the force limit).
@@ -81,9 +81,7 @@ def to_markdown(results: dict[str, Any]) -> str:
     for key, val in results.items():
         for method, r in val.items():
             if isinstance(r, dict) and r["calibration"]:
-                cal = "; ".join(f"{c['stated'][0]:.2f}–{c['stated'][1]:.2f}: {c['right']:.2f} "
-                                f"({c['samples']})" for c in r["calibration"])  # fmt: skip
-                lines.append(f"- {key}, {method}: {cal}")
+                lines.append(f"- {key}, {method}: {calibration_text(r['calibration'])}")
     return "\n".join(lines) + "\n"
 
 

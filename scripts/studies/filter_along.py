@@ -1,6 +1,7 @@
 """The deviation filter along the state study's insertions, on any seed (docs/boundary-mapping.md):
-per fit and stiffness, the share of states named right, the filter's CPU a 1 kHz sample, and
-how many scored samples rest free (true P0) or touch with less than 3 noise deviations.
+per fit and stiffness, the share of states named right, the filter's CPU a 1 kHz sample, how
+many scored samples rest free (true P0) or touch with less than 3 noise deviations, and the
+calibration of the probability it states.
 
     .venv/bin/python scripts/studies/filter_along.py --seed 3 --trials 32
     .venv/bin/python scripts/studies/filter_along.py --seed 0 --trials 8 --cases clearance:1e10
@@ -29,7 +30,7 @@ from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.control.deviation_filter import UNKNOWN_STIFFNESS, DeviationFilter, StateFeed
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import simulate
-from fbcc_ros.core.sim.state_study import drawn_insertions
+from fbcc_ros.core.sim.state_study import Tally, calibration_text, drawn_insertions
 
 CASES = "clearance:1.84e8,clearance:1e9,clearance:1e10,interference:5e8,interference:1e9"
 #: A touch under this many deviations of the sensor's noise in |F| is below what one sample
@@ -48,6 +49,7 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
     _, traj = simulate(sc, "fbcc", initial=dev, geometries=parts, seed=seed)
     assert traj is not None
     right = scored = free = faint = 0
+    tally = Tally()
     cpu = 0.0
     lines = []
     for i in range(trials):
@@ -62,9 +64,10 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
             p[j] = filt.update(w[r], pose[r])
             lowest = min(lowest, filt.surprise_mean)
         cpu += time.process_time() - start
-        named, _ = most_probable(p)
+        named, stated = most_probable(p)
         inside = x[rows, 2] > 0
         truth = feature_state(x[rows[inside]], parts[i])
+        tally.add(np.column_stack(truth), named[inside], stated[inside])
         force = np.linalg.norm(traj.response[rows[inside], i, :3], axis=1)
         hits = sum(int((named[inside, plane] == truth[plane]).sum()) for plane in range(2))
         for plane in range(2):
@@ -77,7 +80,8 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
     summary = (f"{fit} {k / 1e9:g} GPa, seed {seed}, {trials} insertions: right "
                f"{right / scored:.3f}, CPU {cpu / (trials * traj.t.size) * 1e6:.0f} µs a sample; "
                f"of {scored} scored: free {free / scored:.2f}, touching under {FAINT:g} σ "
-               f"{faint / scored:.2f}")
+               f"{faint / scored:.2f}\n  calibration (stated: share right, samples): "
+               f"{calibration_text(tally.calibration())}")
     return "\n".join([*lines, summary] if per_insertion else [summary])
 
 

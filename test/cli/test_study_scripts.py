@@ -34,5 +34,8 @@ def test_delays_prints_a_line_per_run() -> None:
 def test_filter_along_prints_a_line_per_case() -> None:
     out = _run("scripts/studies/filter_along.py", "--trials", "1", "--cases",
                "clearance:1e9,interference:5e8").strip().splitlines()  # fmt: skip
-    assert [line.split(",")[0] for line in out] == ["clearance 1 GPa", "interference 0.5 GPa"]
-    assert all("right 0." in line or "right 1." in line for line in out), out
+    cases = [line for line in out if not line.startswith("  ")]
+    assert [line.split(",")[0] for line in cases] == ["clearance 1 GPa", "interference 0.5 GPa"]
+    assert all("right 0." in line or "right 1." in line for line in cases), out
+    calibration = [line for line in out if line.startswith("  calibration")]
+    assert len(calibration) == 2 and all("0.99–1.00: " in line for line in calibration), out

@@ -22,6 +22,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -79,13 +80,22 @@ class Tally:
         return {"accuracy": self.accuracy, "samples": int(self.confusion.sum()),
                 "per_state": {s: {"accuracy": a, "samples": n}
                               for s, (a, n) in self.per_state().items()},
-                "confusion": self.confusion.tolist(),
-                "calibration": [{"stated": [lo, min(hi, 1.0)], "samples": int(n),
-                                 "right": float(r / n) if n else None}
-                                for lo, hi, n, r in zip(CALIBRATION_EDGES[:-1],
-                                                        CALIBRATION_EDGES[1:], self.stated,
-                                                        self.right, strict=True)
-                                if n]}  # fmt: skip
+                "confusion": self.confusion.tolist(), "calibration": self.calibration()}
+
+    def calibration(self) -> list[dict[str, Any]]:
+        """Per bin of the stated probability that has samples: the bin, the samples and the
+        share right."""
+        return [{"stated": [lo, min(hi, 1.0)], "samples": int(n), "right": float(r / n)}
+                for lo, hi, n, r in zip(CALIBRATION_EDGES[:-1], CALIBRATION_EDGES[1:],
+                                        self.stated, self.right, strict=True)
+                if n]  # fmt: skip
+
+
+def calibration_text(calibration: list[dict[str, Any]]) -> str:
+    """A tally's calibration (:meth:`Tally.calibration`) in one line: each bin of the stated
+    probability, the share right and the samples."""
+    return "; ".join(f"{c['stated'][0]:.2f}–{c['stated'][1]:.2f}: {c['right']:.2f} "
+                     f"({c['samples']})" for c in calibration)  # fmt: skip
 
 
 def sector_rule(response: FloatArray, depth: FloatArray, nominal: PegHole) -> np.ndarray:
