@@ -55,8 +55,7 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
     for i in range(trials):
         x, w, pose = traj.features[:, i], traj.measured[:, i], traj.pose[:, i]
         start = time.process_time()
-        feed = StateFeed(5)
-        rows = np.array([r for r in range(len(pose)) if feed.take(pose[r], w[r])], dtype=int)
+        rows = StateFeed(5).rows(pose, w)
         filt = DeviationFilter(sc.geometry.replace(stiffness=k), unc, seed=i,
                                **({"stiffness": UNKNOWN_STIFFNESS} if unknown_k else {}))
         p, lowest = np.empty((len(rows), 2, len(STATES))), 0.0

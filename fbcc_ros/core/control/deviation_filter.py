@@ -256,8 +256,8 @@ class DeviationFilter:
         else:
             self._logw += scale * ll
         self._logw -= self._logw.max()
-        probabilities = self.states(x)
         weights = self.weights
+        probabilities = self.states(x, weights)
         if lost:  # explains the samples far worse than the truth would, for many of them
             self._redraw(weights)
         elif 1.0 / np.sum(weights**2) < len(weights) / 2:
@@ -275,10 +275,11 @@ class DeviationFilter:
         mean = float(np.log(self.weights @ np.exp(ll - top))) + top
         return mean + noise_misfit(w, depth, self.nominal, self._noise)
 
-    def states(self, x: FloatArray) -> FloatArray:
+    def states(self, x: FloatArray, weights: FloatArray | None = None) -> FloatArray:
         """The weighted vote of the particles' states at their true features x (P, 5), each
-        with its own gap, each read with the features known to within READOUT_SPREAD."""
-        weights = self.weights
+        with its own gap, each read with the features known to within READOUT_SPREAD;
+        ``weights`` the normalised ones when the caller has them."""
+        weights = self.weights if weights is None else weights
         hole = self.nominal.hole_radius + self._theta[:, 5]
         return np.array([spread_states(d, t, x[:, 2], hole, self.nominal.peg_radius,
                                        *READOUT_SPREAD).vote(weights)
@@ -356,6 +357,11 @@ class StateFeed:
         self.sent += int(take)
         return take
 
+    def rows(self, features: FloatArray, responses: FloatArray) -> np.ndarray:
+        """The rows of a recorded insertion (features and responses, both (T, 5)) it takes."""
+        return np.array([k for k in range(len(features)) if self.take(features[k], responses[k])],
+                        dtype=int)  # fmt: skip
+
 
 def along(features: FloatArray, responses: FloatArray, nominal: PegHole, every: int = 1,
           **options: Any) -> tuple[np.ndarray, FloatArray]:  # fmt: skip
@@ -363,9 +369,7 @@ def along(features: FloatArray, responses: FloatArray, nominal: PegHole, every: 
     both (T, 5); updated at the rows :class:`StateFeed` takes (every ``every``-th from the first
     in contact or in the hole). Returns the rows it updated at and P(state) there, shape
     (K, 2, 9). ``options`` go to :class:`DeviationFilter`."""
-    feed = StateFeed(every)
-    rows = np.array([k for k in range(len(features)) if feed.take(features[k], responses[k])],
-                    dtype=int)  # fmt: skip
+    rows = StateFeed(every).rows(features, responses)
     f = DeviationFilter(nominal, **options)
     return rows, np.array([f.update(responses[k], features[k]) for k in rows]).reshape(-1, 2,
                                                                                      len(STATES))

@@ -12,6 +12,7 @@ import pytest
 
 from fbcc_ros.core.contact.model import ContactBatch, PegHole
 from fbcc_ros.core.contact.segmentation import FZ_MIN, OFFSET_TOL, STATES, feature_state
+from fbcc_ros.core.control import deviation_filter
 from fbcc_ros.core.control.contact_state import most_probable
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.control.deviation_filter import (
@@ -277,6 +278,28 @@ def test_a_cloud_sure_of_features_near_a_band_states_them_with_the_readout_sprea
     assert p[0, STATES.index("D0")] == pytest.approx(1 - expected, abs=1e-9)
     x[:, 0] = 5e-6
     assert f.states(x)[0, STATES.index("D1")] == pytest.approx(1.0, abs=1e-9)
+
+
+def test_a_wide_cloud_weighs_with_the_coarse_model(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Until it has converged the cloud's predictions come from the contact model at
+    WIDE_ANGLES; at the nominal's 48 the same update weighs the particles (slightly)
+    differently."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_interference.yaml"))
+    pose = np.array([0.0, 0.0, 3e-3, 0.0, 0.0])
+    response = sc.geometry.response([2e-6, -1e-6, 3e-3, 1e-3, 2e-3])
+
+    def weights(angles: int) -> np.ndarray:
+        monkeypatch.setattr(deviation_filter, "WIDE_ANGLES", angles)
+        f = DeviationFilter(sc.geometry, particles=1000, anneal=0, seed=3)
+        f._resample = lambda weights: None  # type: ignore[method-assign]
+        f.update(response, pose)
+        return f.weights
+
+    shipped = deviation_filter.WIDE_ANGLES
+    assert shipped < sc.geometry.n_angles
+    coarse, fine = weights(shipped), weights(sc.geometry.n_angles)
+    assert not np.allclose(coarse, fine, rtol=1e-6, atol=0.0)
+    assert np.abs(coarse - fine).max() < 0.1 * fine.max()  # the same cloud, to within its model
 
 
 @pytest.mark.parametrize("fz", [2.0, 0.02])  # a contact's Fz, and one within the noise
