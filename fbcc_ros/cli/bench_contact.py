@@ -10,6 +10,7 @@ import numpy as np
 
 from fbcc_ros.core.control.contact_state import ContactStateEstimator
 from fbcc_ros.core.control.deviation_filter import DeviationFilter
+from fbcc_ros.core.control.state_feed import StateFeed
 from fbcc_ros.core.paper import paper_scenario
 from fbcc_ros.core.sim.scenario import Scenario, validate
 from fbcc_ros.core.sim.simulation import Trajectory, simulate
@@ -46,9 +47,9 @@ def bench_contact_state(sc: Scenario, trajectory: Trajectory, steps: int
         one.append(time.perf_counter() - t0)
     history = DeviationFilter(sc.geometry)
     updates = []
-    for k in range(0, len(measured), FILTER_EVERY):
+    for sample in StateFeed(FILTER_EVERY).samples(pose, measured)[1]:
         t0 = time.perf_counter()
-        history.update(measured[k], pose[k])
+        history.update(*sample)
         updates.append(time.perf_counter() - t0)
     return {
         "one response": (float(np.median(one)) * 1e6, float(np.percentile(one, 99)) * 1e6),
@@ -63,7 +64,6 @@ def _online(sc: Scenario, measured: np.ndarray, pose: np.ndarray) -> tuple[float
     """What the controller's loop pays for the online filter per 1 kHz sample [µs]: the feed's
     choice and the write to the filter's process (:mod:`fbcc_ros.pipeline.state_worker`),
     (mean, p99); the filter's own work is in its process."""
-    from fbcc_ros.core.control.deviation_filter import StateFeed
     from fbcc_ros.pipeline.state_worker import StateWorker
 
     worker, feed = StateWorker(sc.geometry), StateFeed(FILTER_EVERY)
@@ -72,8 +72,8 @@ def _online(sc: Scenario, measured: np.ndarray, pose: np.ndarray) -> tuple[float
         costs = []
         for k in range(len(measured)):
             t0 = time.perf_counter()
-            if feed.take(pose[k], measured[k]):
-                worker.put(float(k), pose[k], measured[k])
+            if (sample := feed.take(pose[k], measured[k])) is not None:
+                worker.put(float(k), sample)
             costs.append(time.perf_counter() - t0)
     finally:
         worker.close()

@@ -21,10 +21,11 @@ from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.compensation.wrench import response_from_wrench
 from fbcc_ros.core.contact.features import features_from_pose, pose_from_features
 from fbcc_ros.core.contact.segmentation import response_state
-from fbcc_ros.core.control.deviation_filter import StateFeed, stiffness_range
+from fbcc_ros.core.control.deviation_filter import stiffness_range
 from fbcc_ros.core.control.laws import make_law
 from fbcc_ros.core.control.phase import WAITING
 from fbcc_ros.core.control.robust import RobustFbcc
+from fbcc_ros.core.control.state_feed import StateFeed
 from fbcc_ros.core.control.supervisor import SafetyLimits, Supervisor
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim import scenario as scenario_io
@@ -195,9 +196,10 @@ class ControllerStage:
                 worker.start_insertion()
         self._was_active = active
         features = self.sup.features
-        if active and features is not None and feed.take(features, self.response):
-            if worker is not None:
-                worker.put(stamp, features, self.response)
+        if active and features is not None:
+            sample = feed.take(features, self.response)
+            if sample is not None and worker is not None:
+                worker.put(stamp, sample)
 
     def start_state_worker(self) -> bool:
         """Start the contact-state filter's process (once someone listens); whether it runs."""

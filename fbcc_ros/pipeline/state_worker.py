@@ -1,22 +1,22 @@
 """The contact state online: the deviation filter
 (:mod:`fbcc_ros.core.control.deviation_filter`) along the running insertion, in a process of its
-own, fed every n-th control period.
+own, fed at every n-th control period.
 
 One update of the filter costs 0.7–5 ms (500–4000 particles): several 1 kHz periods. In the
 controller's process it would hold the loop, since the interpreter runs one thread at a time.
 So the filter runs in a child interpreter, scheduled from its first line only where the loop
 leaves a core idle (:data:`LOWEST`: its start-up and its work yield to the loop), and the loop
-only writes it a sample: a pickled frame of ~300 bytes on a pipe. The
+only writes it what the feed hands over: a pickled frame of ~320 bytes on a pipe. The
 pipes are non-blocking both ways: a frame under PIPE_BUF is written whole or not at all, so a
 child that falls too far behind costs dropped samples (counted), never a blocked loop. The
 child answers every sample, in order, with P(state) per plane. Until the cloud has converged
 (the first ~0.6–0.8 s of contact, 4000 particles) it updates slower than 200 Hz and falls
 behind; once 500 particles carry the cloud it updates 7× faster than real time and catches up.
 
-:class:`~fbcc_ros.core.control.deviation_filter.StateFeed` picks the samples it gets, as
-:func:`~fbcc_ros.core.control.deviation_filter.along` picks them from the same insertion: every
-``every``-th period from the first one in contact or in the hole after the start. The filter is
-seeded, so both give the same probabilities.
+:class:`~fbcc_ros.core.control.state_feed.StateFeed` makes what it gets, as
+:func:`~fbcc_ros.core.control.deviation_filter.along` makes it from the same insertion: at every
+``every``-th period from the first one in contact or in the hole after the start, the mean of the
+periods since the last. The filter is seeded, so both give the same probabilities.
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ import numpy as np
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import PegHole
+from fbcc_ros.core.control.state_feed import FeedSample
 
 #: What the child is sent besides samples: a new insertion.
 _RESET = "reset"
@@ -104,8 +105,8 @@ def serve(inbox: BinaryIO, outbox: BinaryIO) -> None:
         if item == _RESET:
             filt = DeviationFilter(nominal, **options)
             continue
-        insertion, stamp, features, response = item
-        send((insertion, stamp, filt.update(response, features)))
+        insertion, stamp, sample = item
+        send((insertion, stamp, filt.update(*sample)))
 
 
 class StateWorker:
@@ -163,10 +164,9 @@ class StateWorker:
         self.sent = self.answered = self.dropped = 0
         self._reset = not self._write(_RESET)
 
-    def put(self, stamp: float, features: FloatArray, response: FloatArray) -> None:
-        """Hand the filter one sample: measured features and response, both (5,)."""
-        item = (self._insertion, stamp, np.array(features, dtype=float),
-                np.array(response, dtype=float))  # fmt: skip
+    def put(self, stamp: float, sample: FeedSample) -> None:
+        """Hand the filter what the feed took at the sample of ``stamp``."""
+        item = (self._insertion, stamp, tuple(np.array(a, dtype=float) for a in sample))
         if self._reset:
             self._reset = not self._write(_RESET)
         if not self._reset and self._write(item):

@@ -27,7 +27,8 @@ import numpy as np
 from fbcc_ros.core.contact.segmentation import STATES, feature_state
 from fbcc_ros.core.control.contact_state import most_probable
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
-from fbcc_ros.core.control.deviation_filter import UNKNOWN_STIFFNESS, DeviationFilter, StateFeed
+from fbcc_ros.core.control.deviation_filter import UNKNOWN_STIFFNESS, DeviationFilter
+from fbcc_ros.core.control.state_feed import StateFeed
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import simulate
 from fbcc_ros.core.sim.state_study import Tally, calibration_text, drawn_insertions
@@ -55,12 +56,12 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
     for i in range(trials):
         x, w, pose = traj.features[:, i], traj.measured[:, i], traj.pose[:, i]
         start = time.process_time()
-        rows = StateFeed(5).rows(pose, w)
+        rows, handed = StateFeed(5).samples(pose, w)
         filt = DeviationFilter(sc.geometry.replace(stiffness=k), unc, seed=i,
                                **({"stiffness": UNKNOWN_STIFFNESS} if unknown_k else {}))
         p, lowest = np.empty((len(rows), 2, len(STATES))), 0.0
-        for j, r in enumerate(rows):
-            p[j] = filt.update(w[r], pose[r])
+        for j, sample in enumerate(handed):
+            p[j] = filt.update(*sample)
             lowest = min(lowest, filt.surprise_mean)
         cpu += time.process_time() - start
         named, stated = most_probable(p)

@@ -9,7 +9,8 @@ import time
 import numpy as np
 import pytest
 
-from fbcc_ros.core.control.deviation_filter import UNKNOWN_STIFFNESS, StateFeed, along
+from fbcc_ros.core.control.deviation_filter import UNKNOWN_STIFFNESS, along
+from fbcc_ros.core.control.state_feed import FeedSample, StateFeed
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import simulate
 from fbcc_ros.pipeline.state_worker import StateWorker
@@ -50,8 +51,8 @@ def test_the_worker_answers_as_the_filter_along_the_insertion(insertion, stiffne
         worker.start_insertion()
         feed.start_insertion()
         for k in range(len(features)):
-            if feed.take(features[k], responses[k]):
-                worker.put(float(k), features[k], responses[k])
+            if (sample := feed.take(features[k], responses[k])) is not None:
+                worker.put(float(k), sample)
 
     try:
         insert()
@@ -77,7 +78,8 @@ def test_a_dead_child_drops_the_samples_and_never_blocks_the_loop(insertion) -> 
         worker._process.wait()
         worker.start_insertion()
         for k in range(2000):  # far more than a pipe holds
-            worker.put(float(k), features[k % 400], responses[k % 400])
+            worker.put(float(k), FeedSample(responses[k % 400], features[k % 400],
+                                            features[k % 400]))  # fmt: skip
         assert worker.sent == 0 and worker.dropped == 2000
         assert worker.answers() == [] and not worker.alive
     finally:

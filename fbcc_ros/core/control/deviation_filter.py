@@ -18,9 +18,10 @@ with g the radial gap R − r off the nominal. Particles start uniform over the 
 :class:`~fbcc_ros.core.control.contact_uncertainty.Uncertainty` (deviations ±range, μ ×(1 ± f),
 g ± 2·radius) and with k log-uniform over ``stiffness`` (default: the nominal k alone, the k the
 user states, a band of the likelihood covering a part off it; :data:`UNKNOWN_STIFFNESS` for one
-nobody knows). Each update, every particle's true features give its predicted response (the
-contact model of eq. 5-13 with its μ, gap and k; at :data:`WIDE_ANGLES` angles until the
-cloud has converged), weighed by the measurement model of
+nobody knows). It is updated at every n-th sample with the mean of the samples since the last
+(:mod:`~fbcc_ros.core.control.state_feed`). Each update, every particle's true features give its
+predicted response (the contact model of eq. 5-13 with its μ, gap and k; at
+:data:`WIDE_ANGLES` angles until the cloud has converged), weighed by the measurement model of
 :mod:`~fbcc_ros.core.control.state_likelihood`: in contact, the indicators of both planes (u =
 F/Fz and σ, in which k cancels) with a Cauchy kernel of the sensor's noise over Fz plus a model
 floor, and Fz itself within a band; out of contact in Fz, whether a particle's Fz would show
@@ -77,8 +78,9 @@ from numpy.typing import ArrayLike
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.features import true_rows
 from fbcc_ros.core.contact.model import ContactBatch, PegHole, as_rows
-from fbcc_ros.core.contact.segmentation import FZ_MIN, STATES, spread_states
+from fbcc_ros.core.contact.segmentation import STATES, spread_states
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
+from fbcc_ros.core.control.state_feed import StateFeed
 from fbcc_ros.core.control.state_likelihood import (
     CONTACT_MISMATCH,
     log_likelihood,
@@ -224,9 +226,12 @@ class DeviationFilter:
                   self.nominal.peg_radius, np.full(n, self.nominal.peg_radius), out)  # fmt: skip
         return out
 
-    def update(self, response: ArrayLike, features: ArrayLike) -> FloatArray:
+    def update(self, response: ArrayLike, features: ArrayLike,
+               now: ArrayLike | None = None) -> FloatArray:  # fmt: skip
         """Weigh the particles by one compensated response (5,) in {H} [N, N·m] measured at the
-        robot's features (5,); returns P(state) per plane, shape (2, 9)."""
+        robot's features (5,), both the mean of the samples since the last update
+        (:class:`StateFeed`); returns P(state) per plane, shape (2, 9), read at the features
+        ``now`` (5,), the last sample's (default ``features``)."""
         w, _ = as_rows(response, "response", "(Fx, Fy, Fz, Mx, My) in N, N·m")
         depth = max(float(np.asarray(features, dtype=float)[2]), 0.0)
         x = self.true_features(features)
@@ -257,6 +262,8 @@ class DeviationFilter:
             self._logw += scale * ll
         self._logw -= self._logw.max()
         weights = self.weights
+        if now is not None:  # the state where the peg is at the last sample
+            x = self.true_features(now)
         probabilities = self.states(x, weights)
         if lost:  # explains the samples far worse than the truth would, for many of them
             self._redraw(weights)
@@ -327,49 +334,12 @@ class DeviationFilter:
         np.clip(self._theta, self._low, self._high, out=self._theta)
 
 
-class StateFeed:
-    """Which samples of an insertion the filter is handed: every ``every``-th from the first in
-    contact (Fz over :data:`~fbcc_ros.core.contact.segmentation.FZ_MIN`) or in the hole, by
-    :func:`along` offline and by the controller online
-    (:mod:`fbcc_ros.pipeline.state_worker`), so that both hand it the same."""
-
-    def __init__(self, every: int) -> None:
-        if every < 1:
-            raise ConfigError("every", every, "a row count >= 1")
-        self.every = int(every)
-        self.start_insertion()
-
-    def start_insertion(self) -> None:
-        self._touched = False
-        self._periods = 0
-        #: samples handed over this insertion
-        self.sent = 0
-
-    def take(self, features: ArrayLike, response: ArrayLike) -> bool:
-        """Whether this sample (features and response, both (5,)) goes to the filter."""
-        if not self._touched:
-            f, w = np.asarray(features, dtype=float), np.asarray(response, dtype=float)
-            if not (w[2] > FZ_MIN or f[2] > 0):
-                return False
-            self._touched = True
-        take = self._periods % self.every == 0
-        self._periods += 1
-        self.sent += int(take)
-        return take
-
-    def rows(self, features: FloatArray, responses: FloatArray) -> np.ndarray:
-        """The rows of a recorded insertion (features and responses, both (T, 5)) it takes."""
-        return np.array([k for k in range(len(features)) if self.take(features[k], responses[k])],
-                        dtype=int)  # fmt: skip
-
-
 def along(features: FloatArray, responses: FloatArray, nominal: PegHole, every: int = 1,
           **options: Any) -> tuple[np.ndarray, FloatArray]:  # fmt: skip
     """The filter along one recorded insertion: measured features and compensated responses,
     both (T, 5); updated at the rows :class:`StateFeed` takes (every ``every``-th from the first
     in contact or in the hole). Returns the rows it updated at and P(state) there, shape
     (K, 2, 9). ``options`` go to :class:`DeviationFilter`."""
-    rows = StateFeed(every).rows(features, responses)
+    rows, handed = StateFeed(every).samples(features, responses)
     f = DeviationFilter(nominal, **options)
-    return rows, np.array([f.update(responses[k], features[k]) for k in rows]).reshape(-1, 2,
-                                                                                     len(STATES))
+    return rows, np.array([f.update(*sample) for sample in handed]).reshape(-1, 2, len(STATES))

@@ -32,8 +32,9 @@ from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.contact.segmentation import SIGNS, STATES
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
-from fbcc_ros.core.control.deviation_filter import DeviationFilter, StateFeed
+from fbcc_ros.core.control.deviation_filter import DeviationFilter
 from fbcc_ros.core.control.robust import RobustFbcc
+from fbcc_ros.core.control.state_feed import FeedSample, StateFeed
 from fbcc_ros.core.errors import ConfigError
 
 #: The rows of each plane in feature order (dx, dy, l, θx, θy): (offset, tilt).
@@ -43,9 +44,9 @@ _SIGN_OF = np.zeros((len(STATES), 2, 3))
 for _k, (_d, _t) in enumerate(SIGNS):
     _SIGN_OF[_k, 0, _d + 1] = _SIGN_OF[_k, 1, _t + 1] = 1.0
 
-#: Where a trial's states come from: ``source(trial, response, features)`` at a sample the feed
-#: takes, P(state) (2, 9) of XOZ and YOZ.
-StateSource = Callable[[int, FloatArray, FloatArray], FloatArray]
+#: Where a trial's states come from: ``source(trial, sample)`` at a sample the feed takes (what
+#: it hands the filter), P(state) (2, 9) of XOZ and YOZ.
+StateSource = Callable[[int, FeedSample], FloatArray]
 
 
 def stated_signs(p_states: ArrayLike, confidence: float) -> np.ndarray:
@@ -106,8 +107,8 @@ class StateGatedLaw:
 
     def step(self, response: FloatArray, features: FloatArray, dt: float) -> FloatArray:
         for i, feed in enumerate(self._feeds):
-            if feed.take(features[i], response[i]):
-                self._signs[i] = stated_signs(self.source(i, response[i], features[i]),
+            if (sample := feed.take(features[i], response[i])) is not None:
+                self._signs[i] = stated_signs(self.source(i, sample),
                                               self.confidence)  # fmt: skip
                 if self.tilts_only:
                     self._signs[i, :, 0] = 2
@@ -129,7 +130,7 @@ def filter_source(nominal: PegHole, trials: int, uncertainty: Uncertainty | None
     filters = [DeviationFilter(nominal, uncertainty, seed=seed + i, **options)  # type: ignore[arg-type]
                for i in range(trials)]  # fmt: skip
 
-    def source(trial: int, response: FloatArray, features: FloatArray) -> FloatArray:
-        return filters[trial].update(response, features)
+    def source(trial: int, sample: FeedSample) -> FloatArray:
+        return filters[trial].update(*sample)
 
     return source

@@ -30,6 +30,7 @@ from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.contact.segmentation import STATES, feature_state
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.control.robust import RobustFbcc
+from fbcc_ros.core.control.state_feed import FeedSample
 from fbcc_ros.core.control.state_gate import (
     StateGatedLaw,
     StateSource,
@@ -50,8 +51,8 @@ _INDEX = {s: i for i, s in enumerate(STATES)}
 def truth_source(sc: Scenario, parts: list[PegHole], dev: FloatArray) -> StateSource:
     """The true state of each trial's pose (its part, its hole's deviation), one-hot."""
 
-    def source(trial: int, _response: FloatArray, features: FloatArray) -> FloatArray:
-        x = true_features(features, dev[trial], sc.geometry.peg_radius,
+    def source(trial: int, sample: FeedSample) -> FloatArray:
+        x = true_features(sample.now, dev[trial], sc.geometry.peg_radius,
                           parts[trial].peg_radius)[0]  # fmt: skip
         x[2] = max(x[2], 0.0)
         p = np.zeros((2, len(STATES)))
@@ -72,10 +73,10 @@ class SignTally:
     def checked(self, source: StateSource, truth: StateSource, confidence: float) -> StateSource:
         """``source``, counting its stated signs against ``truth``'s."""
 
-        def counted(trial: int, response: FloatArray, features: FloatArray) -> FloatArray:
-            p = source(trial, response, features)
+        def counted(trial: int, sample: FeedSample) -> FloatArray:
+            p = source(trial, sample)
             said = stated_signs(p, confidence)
-            true = stated_signs(truth(trial, response, features), 1.0)
+            true = stated_signs(truth(trial, sample), 1.0)
             on = said != 2
             self.stated += on.sum(axis=0)
             self.right += (on & (said == true)).sum(axis=0)

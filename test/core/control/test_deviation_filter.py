@@ -21,8 +21,8 @@ from fbcc_ros.core.control.deviation_filter import (
     SURPRISE_MEMORY,
     UNKNOWN_STIFFNESS,
     DeviationFilter,
-    StateFeed,
 )
+from fbcc_ros.core.control.state_feed import StateFeed
 from fbcc_ros.core.control.state_likelihood import CONTACT_SIGMAS, ENTRY_DEPTH, log_likelihood
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim import scenario as scenario_io
@@ -399,9 +399,25 @@ def test_bad_settings_are_refused(kwargs: dict, match: str) -> None:
 def test_the_feed_starts_at_the_first_contact_and_takes_every_nth_period() -> None:
     feed = StateFeed(3)
     above = np.array([0.0, 0.0, -1e-3, 0.0, 0.0])
-    assert not any(feed.take(above, np.zeros(5)) for _ in range(10))  # free, above the hole
+    assert all(feed.take(above, np.zeros(5)) is None for _ in range(10))  # free, above the hole
     touching = np.array([0.0, 0.0, 5.0, 0.0, 0.0])  # Fz: on the top face
     taken = [feed.take(above, touching)] + [feed.take(above, np.zeros(5)) for _ in range(6)]
-    assert taken == [True, False, False, True, False, False, True]
+    assert [t is not None for t in taken] == [True, False, False, True, False, False, True]
     feed.start_insertion()  # a new insertion waits for its own first contact
-    assert not feed.take(above, np.zeros(5)) and feed.sent == 0
+    assert feed.take(above, np.zeros(5)) is None and feed.sent == 0
+
+
+def test_the_feed_hands_the_mean_since_the_last_update_and_the_last_features() -> None:
+    """The first contact alone, then the mean of each window of ``every`` samples; the state is
+    read at the last sample's features."""
+    rng = np.random.default_rng(0)
+    features, responses = rng.normal(size=(10, 5)), rng.normal(size=(10, 5))
+    features[:, 2] = 1e-3  # in the hole from the start
+    rows, handed = StateFeed(4).samples(features, responses)
+    assert rows.tolist() == [0, 4, 8]
+    for row, lo, sample in zip(rows, [0, 1, 5], handed, strict=True):
+        np.testing.assert_allclose(sample.response, responses[lo:row + 1].mean(axis=0))
+        np.testing.assert_allclose(sample.features, features[lo:row + 1].mean(axis=0))
+        np.testing.assert_array_equal(sample.now, features[row])
+    with pytest.raises(ConfigError, match=r"every=0.*>= 1"):
+        StateFeed(0)

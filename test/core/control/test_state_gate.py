@@ -9,6 +9,7 @@ import pytest
 from fbcc_ros.core.contact.segmentation import STATES
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.control.robust import RobustFbcc
+from fbcc_ros.core.control.state_feed import FeedSample
 from fbcc_ros.core.control.state_gate import StateGatedLaw, stated_signs, vetoed
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim import scenario as scenario_io
@@ -56,7 +57,7 @@ def test_a_gated_law_never_moves_a_feature_away_from_its_stated_zero() -> None:
     sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
     dev = np.array([[-8e-5, 5e-5, 0.0, 0.02, -0.03]])  # the truth disagrees with the source
 
-    def told(_trial: int, _w: np.ndarray, _x: np.ndarray) -> np.ndarray:
+    def told(_trial: int, _sample: FeedSample) -> np.ndarray:
         return _one_hot("D1", "D1")
 
     def run(gated: bool, tilts_only: bool = False) -> tuple[np.ndarray, np.ndarray]:
