@@ -187,12 +187,22 @@ def in_deviated_hole(
 ) -> None:
     """Features into ``out`` (5,) of the peg at ``pose`` (5,) of the believed hole, in the hole
     at ``deviation`` (5,) (see :func:`true_features`)."""
+    a_x, a_y, a_z, p_x, p_y, p_z = _axis_and_tip(pose[0], pose[1], pose[2], pose[3], pose[4],
+                                                 r_nominal)  # fmt: skip
+    _moved(a_x, a_y, a_z, p_x, p_y, p_z, deviation, r_nominal, r_true, out)
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def _moved(
+    a_x: float, a_y: float, a_z: float, p_x: float, p_y: float, p_z: float,
+    deviation: FloatArray, r_nominal: float, r_true: float, out: FloatArray,
+) -> None:  # fmt: skip
+    """Features into ``out`` (5,) of the peg with axis ``a`` and tip ``p`` in the believed
+    hole, in the hole at ``deviation`` (5,)."""
     # T_{H_true H} = P(x_dev) P(0)^-1 = (S(b), q): b and q the axis and tip of P(x_dev)
     b_x, b_y, b_z, q_x, q_y, q_z = _axis_and_tip(
         deviation[0], deviation[1], 0.0, deviation[3], deviation[4], r_nominal
     )
-    a_x, a_y, a_z, p_x, p_y, p_z = _axis_and_tip(pose[0], pose[1], pose[2], pose[3], pose[4],
-                                                 r_nominal)  # fmt: skip
     c = 1.0 / (1.0 + b_z)  # S(b), the rows of _swing
     s00, s01, s02 = 1.0 - b_x * b_x * c, -b_x * b_y * c, b_x
     s11, s12 = 1.0 - b_y * b_y * c, b_y
@@ -218,6 +228,18 @@ def true_rows(
     deviation (N, 5) and the true radii (N,), all contiguous float64 (the simulator's loop)."""
     for i in range(pose.shape[0]):
         in_deviated_hole(pose[i], deviation[i], r_nominal, r_true[i], out[i])
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def true_rows_at(
+    pose: FloatArray, deviation: FloatArray, r_nominal: float, r_true: float, out: FloatArray,
+) -> None:  # fmt: skip
+    """:func:`true_rows` of one pose (5,) in many holes, ``deviation`` (N, 5), one true r (the
+    deviation filter's particles): the pose's axis and tip are found once."""
+    a_x, a_y, a_z, p_x, p_y, p_z = _axis_and_tip(pose[0], pose[1], pose[2], pose[3], pose[4],
+                                                 r_nominal)  # fmt: skip
+    for i in range(deviation.shape[0]):
+        _moved(a_x, a_y, a_z, p_x, p_y, p_z, deviation[i], r_nominal, r_true, out[i])
 
 
 def true_features(

@@ -76,7 +76,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
-from fbcc_ros.core.contact.features import true_rows
+from fbcc_ros.core.contact.features import true_rows_at
 from fbcc_ros.core.contact.model import ContactBatch, PegHole, as_rows
 from fbcc_ros.core.contact.segmentation import STATES, spread_states
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
@@ -222,8 +222,8 @@ class DeviationFilter:
         dev = np.zeros((n, 5))
         dev[:, [0, 1, 3, 4]] = self._theta[:, :4]
         out = np.empty((n, 5))
-        true_rows(np.ascontiguousarray(np.broadcast_to(f[0], (n, 5))), dev,
-                  self.nominal.peg_radius, np.full(n, self.nominal.peg_radius), out)  # fmt: skip
+        true_rows_at(np.ascontiguousarray(f[0]), dev, self.nominal.peg_radius,
+                     self.nominal.peg_radius, out)  # fmt: skip
         return out
 
     def update(self, response: ArrayLike, features: ArrayLike,
