@@ -338,8 +338,9 @@ def along(features: FloatArray, responses: FloatArray, nominal: PegHole, every: 
           **options: Any) -> tuple[np.ndarray, FloatArray]:  # fmt: skip
     """The filter along one recorded insertion: measured features and compensated responses,
     both (T, 5); updated at the rows :class:`StateFeed` takes (every ``every``-th from the first
-    in contact or in the hole). Returns the rows it updated at and P(state) there, shape
-    (K, 2, 9). ``options`` go to :class:`DeviationFilter`."""
+    in contact or in the hole) with what it hands over there (the mean since the last update).
+    Returns the rows it updated at and P(state) there, shape (K, 2, 9). ``options`` go to
+    :class:`DeviationFilter`."""
     rows, handed = StateFeed(every).samples(features, responses)
     f = DeviationFilter(nominal, **options)
     return rows, np.array([f.update(*sample) for sample in handed]).reshape(-1, 2, len(STATES))
