@@ -56,7 +56,8 @@ TABLE = (
           "control rate)", "Hz", 1.0, 10000.0),
     Param("state_rate_hz", 200.0, "updates of fbcc/contact_state_estimate, the contact state "
           "by the deviation filter (in a process of its own, started once the topic is heard; "
-          "at most the control rate); 0: none", "Hz", 0.0, 10000.0),
+          "at most the control rate; each update weighs the mean of the samples since the "
+          "last); 0: none", "Hz", 0.0, 10000.0),
     Param("state_stiffness", [0.0, 0.0], "the part's contact stiffness k as the contact-state "
           "filter takes it, [low, high], log-uniform between; [0, 0]: the scenario's "
           "geometry.stiffness (the part's k as stated; a part more than 2x off it costs the "
