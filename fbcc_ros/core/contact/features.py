@@ -187,22 +187,23 @@ def in_deviated_hole(
 ) -> None:
     """Features into ``out`` (5,) of the peg at ``pose`` (5,) of the believed hole, in the hole
     at ``deviation`` (5,) (see :func:`true_features`)."""
-    a_x, a_y, a_z, p_x, p_y, p_z = _axis_and_tip(pose[0], pose[1], pose[2], pose[3], pose[4],
-                                                 r_nominal)  # fmt: skip
-    _moved(a_x, a_y, a_z, p_x, p_y, p_z, deviation, r_nominal, r_true, out)
-
-
-@numba.njit(cache=True)  # type: ignore[misc]
-def _moved(
-    a_x: float, a_y: float, a_z: float, p_x: float, p_y: float, p_z: float,
-    deviation: FloatArray, r_nominal: float, r_true: float, out: FloatArray,
-) -> None:  # fmt: skip
-    """Features into ``out`` (5,) of the peg with axis ``a`` and tip ``p`` in the believed
-    hole, in the hole at ``deviation`` (5,)."""
     # T_{H_true H} = P(x_dev) P(0)^-1 = (S(b), q): b and q the axis and tip of P(x_dev)
     b_x, b_y, b_z, q_x, q_y, q_z = _axis_and_tip(
         deviation[0], deviation[1], 0.0, deviation[3], deviation[4], r_nominal
     )
+    a_x, a_y, a_z, p_x, p_y, p_z = _axis_and_tip(pose[0], pose[1], pose[2], pose[3], pose[4],
+                                                 r_nominal)  # fmt: skip
+    _in_hole(a_x, a_y, a_z, p_x, p_y, p_z, b_x, b_y, b_z, q_x, q_y, q_z, r_true, out)
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def _in_hole(
+    a_x: float, a_y: float, a_z: float, p_x: float, p_y: float, p_z: float,
+    b_x: float, b_y: float, b_z: float, q_x: float, q_y: float, q_z: float,
+    r_true: float, out: FloatArray,
+) -> None:  # fmt: skip
+    """Features into ``out`` (5,) of the peg with axis ``a`` and tip ``p`` in the believed
+    hole, in the hole whose P(x_dev) has axis ``b`` and tip ``q``."""
     c = 1.0 / (1.0 + b_z)  # S(b), the rows of _swing
     s00, s01, s02 = 1.0 - b_x * b_x * c, -b_x * b_y * c, b_x
     s11, s12 = 1.0 - b_y * b_y * c, b_y
@@ -231,15 +232,27 @@ def true_rows(
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
-def true_rows_at(
-    pose: FloatArray, deviation: FloatArray, r_nominal: float, r_true: float, out: FloatArray,
-) -> None:  # fmt: skip
-    """:func:`true_rows` of one pose (5,) in many holes, ``deviation`` (N, 5), one true r (the
-    deviation filter's particles): the pose's axis and tip are found once."""
+def hole_frames(deviation: FloatArray, r_nominal: float, out: FloatArray) -> None:
+    """Into ``out`` (N, 6), per hole at ``deviation`` (N, 5): the axis b and tip q of P(x_dev)
+    (:func:`in_deviated_hole`), what :func:`true_rows_at` needs of it."""
+    for i in range(deviation.shape[0]):
+        d = deviation[i]
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = _axis_and_tip(
+            d[0], d[1], 0.0, d[3], d[4], r_nominal)
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def true_rows_at(pose: FloatArray, frames: FloatArray, r_nominal: float, r_true: float,
+                 out: FloatArray) -> None:  # fmt: skip
+    """:func:`true_rows` of one pose (5,) in many holes, given by their frames (N, 6,
+    :func:`hole_frames`), with one true r (the deviation filter's particles, whose holes move
+    less often than the peg): the pose's axis and tip are found once."""
     a_x, a_y, a_z, p_x, p_y, p_z = _axis_and_tip(pose[0], pose[1], pose[2], pose[3], pose[4],
                                                  r_nominal)  # fmt: skip
-    for i in range(deviation.shape[0]):
-        _moved(a_x, a_y, a_z, p_x, p_y, p_z, deviation[i], r_nominal, r_true, out[i])
+    for i in range(frames.shape[0]):
+        f = frames[i]
+        _in_hole(a_x, a_y, a_z, p_x, p_y, p_z, f[0], f[1], f[2], f[3], f[4], f[5], r_true,
+                 out[i])  # fmt: skip
 
 
 def true_features(

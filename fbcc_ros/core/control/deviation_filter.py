@@ -76,7 +76,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
-from fbcc_ros.core.contact.features import true_rows_at
+from fbcc_ros.core.contact.features import hole_frames, true_rows_at
 from fbcc_ros.core.contact.model import ContactBatch, PegHole, as_rows
 from fbcc_ros.core.contact.segmentation import STATES, spread_states
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
@@ -203,6 +203,17 @@ class DeviationFilter:
         self._noise = np.asarray(unc.noise, dtype=float)
 
     @property
+    def _theta(self) -> FloatArray:
+        """The particles (P, 7): (dx, dy, θx, θy, μ, g, ln k)."""
+        return self._cloud
+
+    @_theta.setter
+    def _theta(self, value: FloatArray) -> None:
+        self._cloud = value
+        #: each particle's hole frame (features.hole_frames), None until needed after a move
+        self._frames: FloatArray | None = None
+
+    @property
     def weights(self) -> FloatArray:
         """The particles' normalised weights."""
         w = np.exp(self._logw - self._logw.max())
@@ -218,11 +229,13 @@ class DeviationFilter:
         """Each particle's true features (in the hole where it puts it) at the measured ones
         (5,), shape (P, 5)."""
         f, _ = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
-        n = len(self._theta)
-        dev = np.zeros((n, 5))
-        dev[:, [0, 1, 3, 4]] = self._theta[:, :4]
-        out = np.empty((n, 5))
-        true_rows_at(np.ascontiguousarray(f[0]), dev, self.nominal.peg_radius,
+        if self._frames is None:  # the particles moved: their holes' frames, found once
+            dev = np.zeros((len(self._theta), 5))
+            dev[:, [0, 1, 3, 4]] = self._theta[:, :4]
+            self._frames = np.empty((len(self._theta), 6))
+            hole_frames(dev, self.nominal.peg_radius, self._frames)
+        out = np.empty((len(self._theta), 5))
+        true_rows_at(np.ascontiguousarray(f[0]), self._frames, self.nominal.peg_radius,
                      self.nominal.peg_radius, out)  # fmt: skip
         return out
 
@@ -296,7 +309,7 @@ class DeviationFilter:
         """Every particle moved by a draw of ``times`` SPREAD_OUT, within the prior, the weights
         made equal."""
         self._theta += self._rng.normal(0.0, times * np.asarray(SPREAD_OUT), self._theta.shape)
-        self._keep_in_prior()
+        self._moved()
         self._logw = np.zeros(len(self._theta))
 
     def _spread_out(self) -> None:
@@ -325,13 +338,14 @@ class DeviationFilter:
         cov = (weights * centred.T) @ centred + np.diag(np.square(JITTER_FLOOR))
         kernel = self._rng.multivariate_normal(np.zeros(len(mean)), (1 - SHRINK**2) * cov, n)
         self._theta = SHRINK * self._theta[index] + (1 - SHRINK) * mean + kernel
-        self._keep_in_prior()
+        self._moved()
         self._logw = np.zeros(n)
 
-    def _keep_in_prior(self) -> None:
-        """A moved particle stays within the prior's support (a kernel or a spread could take
-        it out: a gap the tolerances do not allow, a negative μ)."""
+    def _moved(self) -> None:
+        """After the particles moved: each stays within the prior's support (a kernel or a
+        spread could take it out: a gap the tolerances do not allow, a negative μ)."""
         np.clip(self._theta, self._low, self._high, out=self._theta)
+        self._frames = None
 
 
 def along(features: FloatArray, responses: FloatArray, nominal: PegHole, every: int = 1,
