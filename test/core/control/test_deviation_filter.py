@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 
+from fbcc_ros.core.contact.features import true_features
 from fbcc_ros.core.contact.model import ContactBatch, PegHole
 from fbcc_ros.core.contact.segmentation import FZ_MIN, OFFSET_TOL, STATES, feature_state
 from fbcc_ros.core.control import deviation_filter
@@ -421,3 +422,25 @@ def test_the_feed_hands_the_mean_since_the_last_update_and_the_last_features() -
         np.testing.assert_array_equal(sample.now, features[row])
     with pytest.raises(ConfigError, match=r"every=0.*>= 1"):
         StateFeed(0)
+
+
+def test_the_particles_true_features_follow_them_when_they_move() -> None:
+    """The filter keeps each particle's hole frame between moves: after a resampling and a
+    spread-out its true features are still those of the plant's own composition."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
+    f = DeviationFilter(sc.geometry, particles=400, converged_particles=400, seed=1)
+    pose = np.array([2e-5, -1e-5, 2e-3, 0.01, -0.02])
+
+    def plant() -> np.ndarray:
+        dev = np.zeros((len(f._theta), 5))
+        dev[:, [0, 1, 3, 4]] = f._theta[:, :4]
+        return true_features(np.broadcast_to(pose, dev.shape), dev, sc.geometry.peg_radius)
+
+    before = f.true_features(pose)
+    np.testing.assert_array_equal(before, plant())
+    f._resample(np.full(len(f._theta), 1.0 / len(f._theta)))
+    np.testing.assert_array_equal(f.true_features(pose), plant())
+    f._spread_out()
+    after = f.true_features(pose)
+    np.testing.assert_array_equal(after, plant())
+    assert not np.array_equal(after[:, :2], before[:, :2])
