@@ -7,6 +7,8 @@ calibration of the probability it states.
     .venv/bin/python scripts/studies/filter_along.py --seed 0 --trials 8 --cases clearance:1e10
     .venv/bin/python scripts/studies/filter_along.py --seed 5 --trials 32 --cases clearance:1e10 \
         --per-insertion
+    .venv/bin/python scripts/studies/filter_along.py --seed 7 --trials 16 \
+        --readout-spreads 1e-7,3e-7
 
 The insertions are those of ``fbcc-mapping-study --estimator`` (F/T under the hole): parts and
 deviations by ``state_study.drawn_insertions``, the filter as the controller runs it
@@ -14,7 +16,10 @@ deviations by ``state_study.drawn_insertions``, the filter as the controller run
 ``trial``, told the case's k as the part's nominal one, or with ``--unknown-k`` nothing of it),
 scored where the peg is in the hole, both planes. ``--per-insertion`` adds a line per insertion:
 its share named right, the lowest running mean of the filter's surprise (``LOST`` and under:
-redrawn) and how often it was redrawn.
+redrawn) and how often it was redrawn. ``--readout-spreads`` adds, per readout spread of the
+offset (the tilt's 100 rad/m times it, the ratio of ``READOUT_SPREAD``), the share named right,
+the expected calibration error and the calibration of the same clouds read with it after each
+update (the CPU figure then includes these readouts).
 """
 
 from __future__ import annotations
@@ -40,7 +45,7 @@ FAINT = 3.0
 
 
 def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
-         per_insertion: bool = False) -> str:  # fmt: skip
+         per_insertion: bool = False, spreads: tuple[float, ...] = ()) -> str:  # fmt: skip
     """The share named right, the CPU, the free and the faint shares; ``per_insertion``, first
     a line per insertion. The filter is told the part's k (to within the uncertainty's
     factor), or, ``unknown_k``, nothing of it."""
@@ -53,6 +58,7 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
     tally = Tally()
     cpu = 0.0
     lines = []
+    read: dict[float, tuple[list, list]] = {s: ([], []) for s in spreads}  # stated, right
     for i in range(trials):
         x, w, pose = traj.features[:, i], traj.measured[:, i], traj.pose[:, i]
         start = time.process_time()
@@ -60,14 +66,24 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
         filt = DeviationFilter(sc.geometry.replace(stiffness=k), unc, seed=i,
                                **({"stiffness": UNKNOWN_STIFFNESS} if unknown_k else {}))
         p, lowest = np.empty((len(rows), 2, len(STATES))), 0.0
+        again = np.empty((len(spreads), len(rows), 2, len(STATES)))
         for j, sample in enumerate(handed):
             p[j] = filt.update(*sample)
             lowest = min(lowest, filt.surprise_mean)
+            if spreads:
+                x_now = filt.true_features(sample.now)
+                for m, s in enumerate(spreads):
+                    again[m, j] = filt.states(x_now, spread=(s, 100.0 * s))
         cpu += time.process_time() - start
         named, stated = most_probable(p)
         inside = x[rows, 2] > 0
         truth = feature_state(x[rows[inside]], parts[i])
         tally.add(np.column_stack(truth), named[inside], stated[inside])
+        for m, s in enumerate(spreads):
+            n_s, p_s = most_probable(again[m])
+            read[s][0].append(p_s[inside].T.ravel())
+            read[s][1].append(np.concatenate([n_s[inside, plane] == truth[plane]
+                                              for plane in range(2)]))  # fmt: skip
         force = np.linalg.norm(traj.response[rows[inside], i, :3], axis=1)
         hits = sum(int((named[inside, plane] == truth[plane]).sum()) for plane in range(2))
         for plane in range(2):
@@ -82,7 +98,22 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
                f"of {scored} scored: free {free / scored:.2f}, touching under {FAINT:g} σ "
                f"{faint / scored:.2f}\n  calibration (stated: share right, samples): "
                f"{calibration_text(tally.calibration())}")
+    for s, (stated_s, right_s) in read.items():
+        summary += "\n  " + readout_text(s, np.concatenate(stated_s), np.concatenate(right_s))
     return "\n".join([*lines, summary] if per_insertion else [summary])
+
+
+def readout_text(spread: float, stated: np.ndarray, right: np.ndarray) -> str:
+    """One readout spread's share named right, expected calibration error (Σ over the bins of
+    the share of samples times |share right - mean stated|) and calibration."""
+    edges = np.array([0.0, 0.3, 0.5, 0.7, 0.9, 0.99, 1.0 + 1e-9])
+    b = np.searchsorted(edges, stated, side="right") - 1
+    bins = [k for k in range(len(edges) - 1) if (b == k).any()]
+    ece = sum(abs(stated[b == k].mean() - right[b == k].mean()) * (b == k).mean() for k in bins)
+    text = "; ".join(f"{edges[k]:.2f}–{min(edges[k + 1], 1.0):.2f}: {right[b == k].mean():.2f} "
+                     f"({int((b == k).sum())})" for k in bins)  # fmt: skip
+    return (f"readout spread {spread:g} m: right {right.mean():.3f}, calibration error "
+            f"{ece:.3f}; {text}")
 
 
 def main() -> None:
@@ -92,17 +123,27 @@ def main() -> None:
     parser.add_argument("--cases", default=CASES, help=f"fit:k[Pa],... (default {CASES})")
     parser.add_argument("--unknown-k", action="store_true",
                         help="the filter is not told k (a prior over UNKNOWN_STIFFNESS)")
+    parser.add_argument("--readout-spreads", default="",
+                        help="offset spreads [m], comma-separated: each one's readout of the "
+                             "same clouds, its share right and calibration")
     parser.add_argument("--per-insertion", action="store_true",
                         help="a line per insertion: right, lowest surprise mean, redraws")
     args = parser.parse_args()
     if args.trials < 1 or args.seed < 0:
         parser.error(f"--trials {args.trials} --seed {args.seed}: expected >= 1 and >= 0")
+    try:
+        spreads = tuple(float(v) for v in args.readout_spreads.split(",") if v.strip())
+    except ValueError:
+        spreads = (-1.0,)
+    if not all(s > 0 for s in spreads):
+        parser.error(f"--readout-spreads {args.readout_spreads!r}: expected offsets [m] > 0, "
+                     "comma-separated")
     for item in args.cases.split(","):
         fit, _, k = item.partition(":")
         if fit not in ("clearance", "interference"):
             parser.error(f"--cases {item!r}: expected clearance:k or interference:k")
-        print(case(fit, float(k), args.trials, args.seed, args.unknown_k, args.per_insertion),
-              flush=True)
+        print(case(fit, float(k), args.trials, args.seed, args.unknown_k, args.per_insertion,
+                   spreads), flush=True)
 
 
 if __name__ == "__main__":

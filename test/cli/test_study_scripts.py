@@ -39,3 +39,15 @@ def test_filter_along_prints_a_line_per_case() -> None:
     assert all("right 0." in line or "right 1." in line for line in cases), out
     calibration = [line for line in out if line.startswith("  calibration")]
     assert len(calibration) == 2 and all("0.99–1.00: " in line for line in calibration), out
+
+
+def test_filter_along_reads_the_same_clouds_at_other_spreads() -> None:
+    out = _run("scripts/studies/filter_along.py", "--trials", "1", "--cases", "clearance:1e9",
+               "--readout-spreads", "1e-7,3e-7").strip().splitlines()  # fmt: skip
+    read = [line.strip() for line in out if line.strip().startswith("readout spread")]
+    assert [line.split(":")[0] for line in read] == ["readout spread 1e-07 m",
+                                                     "readout spread 3e-07 m"], out
+    assert all(", calibration error 0." in line and "0.99–1.00: " in line for line in read), out
+    bad = subprocess.run([sys.executable, "scripts/studies/filter_along.py", "--readout-spreads",
+                          "0,1e-7"], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert bad.returncode == 2 and "expected offsets [m] > 0" in bad.stderr, bad.stderr

@@ -295,14 +295,15 @@ class DeviationFilter:
         mean = float(np.log(self.weights @ np.exp(ll - top))) + top
         return mean + noise_misfit(w, depth, self.nominal, self._noise)
 
-    def states(self, x: FloatArray, weights: FloatArray | None = None) -> FloatArray:
+    def states(self, x: FloatArray, weights: FloatArray | None = None,
+               spread: tuple[float, float] = READOUT_SPREAD) -> FloatArray:  # fmt: skip
         """The weighted vote of the particles' states at their true features x (P, 5), each
-        with its own gap, each read with the features known to within READOUT_SPREAD;
-        ``weights`` the normalised ones when the caller has them."""
+        with its own gap, each read with the features known to within ``spread`` (offset [m],
+        tilt [rad]); ``weights`` the normalised ones when the caller has them."""
         weights = self.weights if weights is None else weights
         hole = self.nominal.hole_radius + self._theta[:, 5]
         return np.array([spread_states(d, t, x[:, 2], hole, self.nominal.peg_radius,
-                                       *READOUT_SPREAD).vote(weights)
+                                       *spread).vote(weights)
                          for d, t in ((x[:, 0], x[:, 4]), (x[:, 1], x[:, 3]))])  # fmt: skip
 
     def _scatter(self, times: float) -> None:
