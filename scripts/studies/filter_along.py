@@ -58,7 +58,7 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
     tally = Tally()
     cpu = 0.0
     lines = []
-    read: dict[float, tuple[list, list]] = {s: ([], []) for s in spreads}  # stated, right
+    read = {s: Tally() for s in spreads}
     for i in range(trials):
         x, w, pose = traj.features[:, i], traj.measured[:, i], traj.pose[:, i]
         start = time.process_time()
@@ -81,9 +81,7 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
         tally.add(np.column_stack(truth), named[inside], stated[inside])
         for m, s in enumerate(spreads):
             n_s, p_s = most_probable(again[m])
-            read[s][0].append(p_s[inside].T.ravel())
-            read[s][1].append(np.concatenate([n_s[inside, plane] == truth[plane]
-                                              for plane in range(2)]))  # fmt: skip
+            read[s].add(np.column_stack(truth), n_s[inside], p_s[inside])
         force = np.linalg.norm(traj.response[rows[inside], i, :3], axis=1)
         hits = sum(int((named[inside, plane] == truth[plane]).sum()) for plane in range(2))
         for plane in range(2):
@@ -98,22 +96,10 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
                f"of {scored} scored: free {free / scored:.2f}, touching under {FAINT:g} σ "
                f"{faint / scored:.2f}\n  calibration (stated: share right, samples): "
                f"{calibration_text(tally.calibration())}")
-    for s, (stated_s, right_s) in read.items():
-        summary += "\n  " + readout_text(s, np.concatenate(stated_s), np.concatenate(right_s))
+    for s, t in read.items():
+        summary += (f"\n  readout spread {s:g} m: right {t.accuracy:.3f}, calibration error "
+                    f"{t.calibration_error():.3f}; {calibration_text(t.calibration())}")
     return "\n".join([*lines, summary] if per_insertion else [summary])
-
-
-def readout_text(spread: float, stated: np.ndarray, right: np.ndarray) -> str:
-    """One readout spread's share named right, expected calibration error (Σ over the bins of
-    the share of samples times |share right - mean stated|) and calibration."""
-    edges = np.array([0.0, 0.3, 0.5, 0.7, 0.9, 0.99, 1.0 + 1e-9])
-    b = np.searchsorted(edges, stated, side="right") - 1
-    bins = [k for k in range(len(edges) - 1) if (b == k).any()]
-    ece = sum(abs(stated[b == k].mean() - right[b == k].mean()) * (b == k).mean() for k in bins)
-    text = "; ".join(f"{edges[k]:.2f}–{min(edges[k + 1], 1.0):.2f}: {right[b == k].mean():.2f} "
-                     f"({int((b == k).sum())})" for k in bins)  # fmt: skip
-    return (f"readout spread {spread:g} m: right {right.mean():.3f}, calibration error "
-            f"{ece:.3f}; {text}")
 
 
 def main() -> None:

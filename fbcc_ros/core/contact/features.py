@@ -187,13 +187,19 @@ def in_deviated_hole(
 ) -> None:
     """Features into ``out`` (5,) of the peg at ``pose`` (5,) of the believed hole, in the hole
     at ``deviation`` (5,) (see :func:`true_features`)."""
-    # T_{H_true H} = P(x_dev) P(0)^-1 = (S(b), q): b and q the axis and tip of P(x_dev)
-    b_x, b_y, b_z, q_x, q_y, q_z = _axis_and_tip(
-        deviation[0], deviation[1], 0.0, deviation[3], deviation[4], r_nominal
-    )
+    b_x, b_y, b_z, q_x, q_y, q_z = _hole_frame(deviation, r_nominal)
     a_x, a_y, a_z, p_x, p_y, p_z = _axis_and_tip(pose[0], pose[1], pose[2], pose[3], pose[4],
                                                  r_nominal)  # fmt: skip
     _in_hole(a_x, a_y, a_z, p_x, p_y, p_z, b_x, b_y, b_z, q_x, q_y, q_z, r_true, out)
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def _hole_frame(
+    deviation: FloatArray, r_nominal: float
+) -> tuple[float, float, float, float, float, float]:
+    """T_{H_true H} = P(x_dev) P(0)^-1 = (S(b), q) of the hole at ``deviation`` (5,): the axis
+    b and tip q of P(x_dev), ``(b_x, b_y, b_z, q_x, q_y, q_z)``."""
+    return _axis_and_tip(deviation[0], deviation[1], 0.0, deviation[3], deviation[4], r_nominal)
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
@@ -236,9 +242,8 @@ def hole_frames(deviation: FloatArray, r_nominal: float, out: FloatArray) -> Non
     """Into ``out`` (N, 6), per hole at ``deviation`` (N, 5): the axis b and tip q of P(x_dev)
     (:func:`in_deviated_hole`), what :func:`true_rows_at` needs of it."""
     for i in range(deviation.shape[0]):
-        d = deviation[i]
-        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = _axis_and_tip(
-            d[0], d[1], 0.0, d[3], d[4], r_nominal)
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = _hole_frame(
+            deviation[i], r_nominal)
 
 
 @numba.njit(cache=True)  # type: ignore[misc]

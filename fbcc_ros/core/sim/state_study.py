@@ -54,6 +54,9 @@ class Tally:
         default_factory=lambda: np.zeros(len(CALIBRATION_EDGES) - 1, dtype=np.int64))
     right: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros(len(CALIBRATION_EDGES) - 1, dtype=np.int64))
+    #: Σ of the stated probabilities per bin (their mean, for the calibration error)
+    stated_sum: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros(len(CALIBRATION_EDGES) - 1))
 
     def add(self, truth: np.ndarray, named: np.ndarray, probability: FloatArray | None = None
             ) -> None:  # fmt: skip
@@ -64,6 +67,7 @@ class Tally:
             b = np.searchsorted(CALIBRATION_EDGES, probability.ravel(), side="right") - 1
             np.add.at(self.stated, b, 1)
             np.add.at(self.right, b, (t == n).astype(np.int64))
+            np.add.at(self.stated_sum, b, probability.ravel())
 
     @property
     def accuracy(self) -> float:
@@ -81,6 +85,13 @@ class Tally:
                 "per_state": {s: {"accuracy": a, "samples": n}
                               for s, (a, n) in self.per_state().items()},
                 "confusion": self.confusion.tolist(), "calibration": self.calibration()}
+
+    def calibration_error(self) -> float:
+        """The expected calibration error: Σ over the bins of their share of the stated samples
+        times |share right - mean stated|."""
+        n = self.stated
+        has = n > 0
+        return float(np.sum(np.abs(self.stated_sum[has] - self.right[has])) / n.sum())
 
     def calibration(self) -> list[dict[str, Any]]:
         """Per bin of the stated probability that has samples: the bin, the samples and the
