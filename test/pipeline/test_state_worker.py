@@ -78,8 +78,7 @@ def test_a_dead_child_drops_the_samples_and_never_blocks_the_loop(insertion) -> 
         worker._process.wait()
         worker.start_insertion()
         for k in range(2000):  # far more than a pipe holds
-            worker.put(float(k), FeedSample(responses[k % 400], features[k % 400],
-                                            features[k % 400]))  # fmt: skip
+            worker.put(float(k), FeedSample(responses[k % 400], features[k % 400][None]))
         assert worker.sent == 0 and worker.dropped == 2000
         assert worker.answers() == [] and not worker.alive
     finally:

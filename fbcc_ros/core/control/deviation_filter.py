@@ -18,8 +18,10 @@ with g the radial gap R − r off the nominal. Particles start uniform over the 
 :class:`~fbcc_ros.core.control.contact_uncertainty.Uncertainty` (deviations ±range, μ ×(1 ± f),
 g ± 2·radius) and with k log-uniform over ``stiffness`` (default: the nominal k alone, the k the
 user states, a band of the likelihood covering a part off it; :data:`UNKNOWN_STIFFNESS` for one
-nobody knows). It is updated at every n-th sample with the mean of the samples since the last
-(:mod:`~fbcc_ros.core.control.state_feed`). Each update, every particle's true features give its
+nobody knows). It is updated at every n-th sample with the mean response of the samples since
+the last and their features (:mod:`~fbcc_ros.core.control.state_feed`): each particle predicts
+at their mean, plus the window's gap between the mean response and the response at the mean,
+taken for the cloud's weighted mean particle. Each update, every particle's true features give its
 predicted response (the contact model of eq. 5-13 with its μ, gap and k; at
 :data:`WIDE_ANGLES` angles until the cloud has converged), weighed by the measurement model of
 :mod:`~fbcc_ros.core.control.state_likelihood`: in contact, the indicators of both planes (u =
@@ -80,7 +82,7 @@ from fbcc_ros.core.contact.features import hole_frames, true_rows_at
 from fbcc_ros.core.contact.model import ContactBatch, PegHole, as_rows
 from fbcc_ros.core.contact.segmentation import STATES, spread_states
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
-from fbcc_ros.core.control.state_feed import StateFeed
+from fbcc_ros.core.control.state_feed import StateFeed, window_gap
 from fbcc_ros.core.control.state_likelihood import (
     CONTACT_MISMATCH,
     log_likelihood,
@@ -239,15 +241,16 @@ class DeviationFilter:
                      self.nominal.peg_radius, out)  # fmt: skip
         return out
 
-    def update(self, response: ArrayLike, features: ArrayLike,
-               now: ArrayLike | None = None) -> FloatArray:  # fmt: skip
-        """Weigh the particles by one compensated response (5,) in {H} [N, N·m] measured at the
-        robot's features (5,), both the mean of the samples since the last update
-        (:class:`StateFeed`); returns P(state) per plane, shape (2, 9), read at the features
-        ``now`` (5,), the last sample's (default ``features``)."""
+    def update(self, response: ArrayLike, features: ArrayLike) -> FloatArray:
+        """Weigh the particles by one compensated response (5,) in {H} [N, N·m], the mean of the
+        samples since the last update, measured at the robot's features: those samples' (n, 5)
+        (:class:`~fbcc_ros.core.control.state_feed.FeedSample`'s window) or one (5,). Returns
+        P(state) per plane, shape (2, 9), read at the last row's features."""
         w, _ = as_rows(response, "response", "(Fx, Fy, Fz, Mx, My) in N, N·m")
-        depth = max(float(np.asarray(features, dtype=float)[2]), 0.0)
-        x = self.true_features(features)
+        window, _ = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
+        mean = window.mean(axis=0)
+        depth = max(float(mean[2]), 0.0)
+        x = self.true_features(mean)
         touching = x.copy()
         np.maximum(touching[:, 2], 0.0, out=touching[:, 2])
         self._table[0] = self.nominal.hole_radius + self._theta[:, 5]
@@ -258,6 +261,8 @@ class DeviationFilter:
             angles = min(angles, WIDE_ANGLES)
         predicted = ContactBatch(self._table, self._peg_top, angles,
                                  loose=True).response(touching)
+        if len(window) > 1:
+            predicted += self._window_gap(window, angles, predicted[:, 2])
         self.updates += 1
         scale = min(1.0, self.updates / self.anneal) if self.anneal else 1.0
         ll = log_likelihood(w[0], depth, predicted, touching[:, 2], self.nominal, self._noise)
@@ -270,19 +275,34 @@ class DeviationFilter:
             # every particle says contact where there is none (or none where there is): the
             # cloud is wrong, and its weights cannot say where; it is spread out again
             self._spread_out()
-            x = self.true_features(features)
+            x = self.true_features(mean)
         else:
             self._logw += scale * ll
         self._logw -= self._logw.max()
         weights = self.weights
-        if now is not None:  # the state where the peg is at the last sample
-            x = self.true_features(now)
+        if len(window) > 1:  # the state where the peg is at the last sample
+            x = self.true_features(window[-1])
         probabilities = self.states(x, weights)
         if lost:  # explains the samples far worse than the truth would, for many of them
             self._redraw(weights)
         elif 1.0 / np.sum(weights**2) < len(weights) / 2:
             self._resample(weights)
         return probabilities
+
+    def _window_gap(self, window: FloatArray, angles: int, fz: FloatArray) -> FloatArray:
+        """What to add to each particle's prediction at the window's mean features (P, 5) with
+        its Fz ``fz`` (P,), for the mean response of the window (n, 5) it is compared with: the
+        gap of the cloud's weighted mean particle (:func:`window_gap`), in proportion to each
+        particle's Fz over that particle's (k scales a response, and cancels in the
+        indicators)."""
+        mean = self.weights @ self._theta
+        pair = self._table[:, :1].copy()
+        pair[[0, 2, 3], 0] = self.nominal.hole_radius + mean[5], mean[4], math.exp(mean[6])
+        gap, at_mean = window_gap(window, np.array([mean[0], mean[1], 0.0, mean[2], mean[3]]),
+                                  pair, self._peg_top, angles, self.nominal.peg_radius)
+        if not at_mean[2] > 0.0:  # out of contact at the mean: no scale to carry it
+            return np.zeros((len(fz), 5))
+        return np.outer(fz / at_mean[2], gap)
 
     def surprise(self, w: FloatArray, depth: float, ll: FloatArray) -> float:
         """How much better (> 0) or worse (< 0) the cloud explains one sample (5,), whose

@@ -3,11 +3,17 @@ an insertion, the same offline (``deviation_filter.along``, ``fbcc-report``) and
 controller's :mod:`fbcc_ros.pipeline.state_worker`).
 
 One update of the filter costs 0.7-3 ms, so it is updated at every n-th sample (200 Hz at
-1 kHz) and handed the mean of the n samples since its last update: the sensor's noise on an
-update falls by √n, where one sample in n would waste the others. The likelihood is taken at
-the window's mean features, the state read at the last sample's: the law's dither carries the
-peg across a state's band within a window. ``docs/boundary-mapping.md`` has what each does to
-the share named right, and the windows tried instead of the mean of every one.
+1 kHz) and handed the mean response of the n samples since its last update, with their
+features: the sensor's noise on an update falls by √n, where one sample in n would waste the
+others. The likelihood is taken at the window's mean features, the state read at the last
+sample's: the law's dither carries the peg across a state's band within a window.
+
+The mean response of a window is not the response at its mean features: the contact model is
+not linear in them, and the dither moves the peg by about a band within a window.
+:func:`window_gap` is that difference for one hole, which the filter takes for its cloud's
+representative particle and adds to every particle's prediction. ``docs/boundary-mapping.md``
+has what each does to the share named right, and the windows tried instead of the mean of
+every one.
 """
 
 from __future__ import annotations
@@ -18,18 +24,28 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.contact.features import true_features
+from fbcc_ros.core.contact.model import ContactBatch
 from fbcc_ros.core.contact.segmentation import FZ_MIN
 from fbcc_ros.core.errors import ConfigError
 
 
 class FeedSample(NamedTuple):
     """What the filter is handed at an update (:class:`StateFeed`): the mean compensated
-    response (5,) and the mean measured features (5,) of the samples since the last update, and
-    the features of the last of them (5,), where the state is read."""
+    response (5,) of the samples since the last update and their measured features (n, 5)."""
 
     response: FloatArray
-    features: FloatArray
-    now: FloatArray
+    window: FloatArray
+
+    @property
+    def features(self) -> FloatArray:
+        """The window's mean features (5,), where the likelihood is taken."""
+        return self.window.mean(axis=0)  # type: ignore[no-any-return]
+
+    @property
+    def now(self) -> FloatArray:
+        """The last sample's features (5,), where the state is read."""
+        return self.window[-1]
 
 
 class StateFeed:
@@ -46,8 +62,8 @@ class StateFeed:
     def start_insertion(self) -> None:
         self._touched = False
         self._periods = 0
-        self._sum = np.zeros(10)  # Σ (features, response) since the last update
-        self._count = 0
+        self._sum = np.zeros(5)  # Σ response since the last update
+        self._rows: list[FloatArray] = []  # their features
         #: samples handed over this insertion
         self.sent = 0
 
@@ -59,18 +75,17 @@ class StateFeed:
             if not (w[2] > FZ_MIN or f[2] > 0):
                 return None
             self._touched = True
-        self._sum[:5] += f
-        self._sum[5:] += w
-        self._count += 1
+        self._sum += w
+        self._rows.append(f.copy())
         take = self._periods % self.every == 0
         self._periods += 1
         if not take:
             return None
-        mean = self._sum / self._count
+        sample = FeedSample(self._sum / len(self._rows), np.array(self._rows))
         self._sum[:] = 0.0
-        self._count = 0
+        self._rows = []
         self.sent += 1
-        return FeedSample(mean[5:], mean[:5], f.copy())
+        return sample
 
     def samples(self, features: FloatArray,
                 responses: FloatArray) -> tuple[np.ndarray, list[FeedSample]]:  # fmt: skip
@@ -82,3 +97,20 @@ class StateFeed:
                 rows.append(k)
                 handed.append(sample)
         return np.array(rows, dtype=int), handed
+
+
+def window_gap(window: FloatArray, deviation: FloatArray, pair: FloatArray, peg_top: bool,
+               n_angles: int, peg_radius: float) -> tuple[FloatArray, FloatArray]:
+    """Of a hole at ``deviation`` (5,) and the contact model's pair ``pair`` (7, 1,
+    :class:`~fbcc_ros.core.contact.model.ContactBatch`'s table): the mean response over the
+    measured features ``window`` (n, 5) less the response at their mean, and the response at
+    their mean, both (5,) (module doc):
+
+    .. math::
+        \\bar h - h(\\bar x) = \\frac{1}{n}\\sum_i h(x_i) - h\\Big(\\frac{1}{n}\\sum_i x_i\\Big).
+    """
+    rows = np.vstack([window, window.mean(axis=0)])
+    x = true_features(rows, deviation, peg_radius)
+    np.maximum(x[:, 2], 0.0, out=x[:, 2])  # above the hole: at its top face
+    h = ContactBatch(pair, peg_top, n_angles, loose=True).response(x)
+    return h[:-1].mean(axis=0) - h[-1], h[-1]

@@ -23,7 +23,7 @@ from fbcc_ros.core.control.deviation_filter import (
     UNKNOWN_STIFFNESS,
     DeviationFilter,
 )
-from fbcc_ros.core.control.state_feed import StateFeed
+from fbcc_ros.core.control.state_feed import StateFeed, window_gap
 from fbcc_ros.core.control.state_likelihood import CONTACT_SIGMAS, ENTRY_DEPTH, log_likelihood
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim import scenario as scenario_io
@@ -418,6 +418,7 @@ def test_the_feed_hands_the_mean_since_the_last_update_and_the_last_features() -
     assert rows.tolist() == [0, 4, 8]
     for row, lo, sample in zip(rows, [0, 1, 5], handed, strict=True):
         np.testing.assert_allclose(sample.response, responses[lo:row + 1].mean(axis=0))
+        np.testing.assert_array_equal(sample.window, features[lo:row + 1])
         np.testing.assert_allclose(sample.features, features[lo:row + 1].mean(axis=0))
         np.testing.assert_array_equal(sample.now, features[row])
     with pytest.raises(ConfigError, match=r"every=0.*>= 1"):
@@ -444,3 +445,49 @@ def test_the_particles_true_features_follow_them_when_they_move() -> None:
     after = f.true_features(pose)
     np.testing.assert_array_equal(after, plant())
     assert not np.array_equal(after[:, :2], before[:, :2])
+
+
+def _dithered_window(depth: float) -> np.ndarray:
+    """Five features of a peg the law's dither carries 10 µm and 0.3 mrad across within a
+    window, at ``depth``."""
+    phase = 2 * np.pi * np.arange(5) / 5
+    return np.column_stack([1e-5 * np.sin(phase), 4e-6 * np.cos(phase), np.full(5, depth),
+                            3e-4 * np.sin(phase + 1.0), 3e-4 * np.cos(phase)])  # fmt: skip
+
+
+def test_the_window_gap_is_the_plants_mean_response_less_its_response_at_the_mean() -> None:
+    """Of a window the dither carried across the wall of a clearance hole, the mean response
+    is far from the response at the mean features; the gap is the difference, with the features
+    composed as the plant composes them."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
+    nominal = sc.geometry
+    deviation = np.array([6e-6, -3e-6, 0.0, 2e-4, -1e-4])
+    window = _dithered_window(4e-3)
+    mean_response = nominal.response(true_features(window, deviation, nominal.peg_radius))
+    mean_response = mean_response.mean(axis=0)
+    pair = ContactBatch.of([nominal]).table
+    gap, at_mean = window_gap(window, deviation, pair, nominal.acting_point == "peg_top",
+                              nominal.n_angles, nominal.peg_radius)  # fmt: skip
+    np.testing.assert_allclose(at_mean + gap, mean_response, rtol=1e-9, atol=1e-12)
+    assert np.linalg.norm(gap) > 0.3 * np.linalg.norm(mean_response)
+
+
+def test_each_particle_gets_the_window_gap_in_proportion_to_its_fz() -> None:
+    """The filter adds the gap of its weighted mean particle to every particle's prediction, in
+    proportion to the particle's Fz over that particle's: a particle at the mean gets the gap
+    itself, one pressing twice as hard twice it, one out of contact nothing."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_interference.yaml"))
+    nominal = sc.geometry
+    f = DeviationFilter(nominal, particles=100, converged_particles=100, seed=2)
+    theta = f._theta.copy()
+    theta[:] = [1e-6, -2e-6, 1e-4, -1e-4, nominal.friction, 0.0, math.log(nominal.stiffness)]
+    f._theta = theta
+    window = _dithered_window(1e-3)
+    deviation = np.array([1e-6, -2e-6, 0.0, 1e-4, -1e-4])
+    gap, at_mean = window_gap(window, deviation, ContactBatch.of([nominal]).table,
+                              nominal.acting_point == "peg_top",
+                              nominal.n_angles, nominal.peg_radius)  # fmt: skip
+    assert at_mean[2] > 0 and np.linalg.norm(gap) > 1e-3
+    fz = np.array([at_mean[2], 2 * at_mean[2], 0.0])
+    added = f._window_gap(window, nominal.n_angles, fz)
+    np.testing.assert_allclose(added, [gap, 2 * gap, np.zeros(5)], rtol=1e-9, atol=1e-15)
