@@ -15,8 +15,9 @@ behind; once 500 particles carry the cloud it updates 7× faster than real time 
 
 :class:`~fbcc_ros.core.control.state_feed.StateFeed` makes what it gets, as
 :func:`~fbcc_ros.core.control.deviation_filter.along` makes it from the same insertion: at every
-``every``-th period from the first one in contact or in the hole after the start, the mean of the
-periods since the last. The filter is seeded, so both give the same probabilities.
+``every``-th period from the first one in contact or in the hole after the start, the mean
+response of the periods since the last and their features. The filter is seeded, so both give the
+same probabilities.
 """
 
 from __future__ import annotations

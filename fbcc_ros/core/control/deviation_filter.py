@@ -21,8 +21,8 @@ user states, a band of the likelihood covering a part off it; :data:`UNKNOWN_STI
 nobody knows). It is updated at every n-th sample with the mean response of the samples since
 the last and their features (:mod:`~fbcc_ros.core.control.state_feed`): each particle predicts
 at their mean, plus the window's gap between the mean response and the response at the mean,
-taken for the cloud's weighted mean particle. Each update, every particle's true features give its
-predicted response (the contact model of eq. 5-13 with its μ, gap and k; at
+taken for the cloud's weighted mean particle where it touches throughout the window. Each
+update, every particle's true features give its predicted response (the contact model of eq. 5-13 with its μ, gap and k; at
 :data:`WIDE_ANGLES` angles until the cloud has converged), weighed by the measurement model of
 :mod:`~fbcc_ros.core.control.state_likelihood`: in contact, the indicators of both planes (u =
 F/Fz and σ, in which k cancels) with a Cauchy kernel of the sensor's noise over Fz plus a model
@@ -294,15 +294,16 @@ class DeviationFilter:
         its Fz ``fz`` (P,), for the mean response of the window (n, 5) it is compared with: the
         gap of the cloud's weighted mean particle (:func:`window_gap`), in proportion to each
         particle's Fz over that particle's (k scales a response, and cancels in the
-        indicators)."""
+        indicators); nothing unless that particle touches at every row and at the mean
+        (``state_feed``'s module doc)."""
         mean = self.weights @ self._theta
         pair = self._table[:, :1].copy()
         pair[[0, 2, 3], 0] = self.nominal.hole_radius + mean[5], mean[4], math.exp(mean[6])
-        gap, at_mean = window_gap(window, np.array([mean[0], mean[1], 0.0, mean[2], mean[3]]),
-                                  pair, self._peg_top, angles, self.nominal.peg_radius)
-        if not at_mean[2] > 0.0:  # out of contact at the mean: no scale to carry it
+        gap, h = window_gap(window, np.array([mean[0], mean[1], 0.0, mean[2], mean[3]]),
+                            pair, self._peg_top, angles, self.nominal.peg_radius)
+        if not (h[:, 2] > 0.0).all():
             return np.zeros((len(fz), 5))
-        return np.outer(fz / at_mean[2], gap)
+        return np.outer(fz / h[-1, 2], gap)
 
     def surprise(self, w: FloatArray, depth: float, ll: FloatArray) -> float:
         """How much better (> 0) or worse (< 0) the cloud explains one sample (5,), whose

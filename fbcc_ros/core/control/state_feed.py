@@ -10,8 +10,10 @@ sample's: the law's dither carries the peg across a state's band within a window
 
 The mean response of a window is not the response at its mean features: the contact model is
 not linear in them, and the dither moves the peg by about a band within a window.
-:func:`window_gap` is that difference for one hole, which the filter takes for its cloud's
-representative particle and adds to every particle's prediction. ``docs/boundary-mapping.md``
+:func:`window_gap` is that difference for one hole. The filter takes it for its cloud's weighted
+mean particle and adds it to every particle's prediction, in proportion to the particle's Fz,
+when that particle touches at every sample of the window: across a contact's edge its gap says
+nothing of another particle's, whose edge lies elsewhere. ``docs/boundary-mapping.md``
 has what each does to the share named right, and the windows tried instead of the mean of
 every one.
 """
@@ -103,8 +105,8 @@ def window_gap(window: FloatArray, deviation: FloatArray, pair: FloatArray, peg_
                n_angles: int, peg_radius: float) -> tuple[FloatArray, FloatArray]:
     """Of a hole at ``deviation`` (5,) and the contact model's pair ``pair`` (7, 1,
     :class:`~fbcc_ros.core.contact.model.ContactBatch`'s table): the mean response over the
-    measured features ``window`` (n, 5) less the response at their mean, and the response at
-    their mean, both (5,) (module doc):
+    measured features ``window`` (n, 5) less the response at their mean, (5,), and the
+    responses at each row and at the mean, (n + 1, 5) (module doc):
 
     .. math::
         \\bar h - h(\\bar x) = \\frac{1}{n}\\sum_i h(x_i) - h\\Big(\\frac{1}{n}\\sum_i x_i\\Big).
@@ -113,4 +115,4 @@ def window_gap(window: FloatArray, deviation: FloatArray, pair: FloatArray, peg_
     x = true_features(rows, deviation, peg_radius)
     np.maximum(x[:, 2], 0.0, out=x[:, 2])  # above the hole: at its top face
     h = ContactBatch(pair, peg_top, n_angles, loose=True).response(x)
-    return h[:-1].mean(axis=0) - h[-1], h[-1]
+    return h[:-1].mean(axis=0) - h[-1], h

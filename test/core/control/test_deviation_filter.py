@@ -466,16 +466,18 @@ def test_the_window_gap_is_the_plants_mean_response_less_its_response_at_the_mea
     mean_response = nominal.response(true_features(window, deviation, nominal.peg_radius))
     mean_response = mean_response.mean(axis=0)
     pair = ContactBatch.of([nominal]).table
-    gap, at_mean = window_gap(window, deviation, pair, nominal.acting_point == "peg_top",
-                              nominal.n_angles, nominal.peg_radius)  # fmt: skip
-    np.testing.assert_allclose(at_mean + gap, mean_response, rtol=1e-9, atol=1e-12)
+    gap, h = window_gap(window, deviation, pair, nominal.acting_point == "peg_top",
+                        nominal.n_angles, nominal.peg_radius)  # fmt: skip
+    np.testing.assert_allclose(h[-1] + gap, mean_response, rtol=1e-9, atol=1e-12)
+    assert not (h[:, 2] > 0).all()  # the dither took the peg off the wall: the filter adds none
     assert np.linalg.norm(gap) > 0.3 * np.linalg.norm(mean_response)
 
 
 def test_each_particle_gets_the_window_gap_in_proportion_to_its_fz() -> None:
     """The filter adds the gap of its weighted mean particle to every particle's prediction, in
     proportion to the particle's Fz over that particle's: a particle at the mean gets the gap
-    itself, one pressing twice as hard twice it, one out of contact nothing."""
+    itself, one pressing twice as hard twice it, one out of contact nothing; and nothing at all
+    when the mean particle leaves the wall within the window."""
     sc = scenario_io.load(scenario_io.find("config/scenarios/robust_interference.yaml"))
     nominal = sc.geometry
     f = DeviationFilter(nominal, particles=100, converged_particles=100, seed=2)
@@ -484,10 +486,13 @@ def test_each_particle_gets_the_window_gap_in_proportion_to_its_fz() -> None:
     f._theta = theta
     window = _dithered_window(1e-3)
     deviation = np.array([1e-6, -2e-6, 0.0, 1e-4, -1e-4])
-    gap, at_mean = window_gap(window, deviation, ContactBatch.of([nominal]).table,
-                              nominal.acting_point == "peg_top",
-                              nominal.n_angles, nominal.peg_radius)  # fmt: skip
-    assert at_mean[2] > 0 and np.linalg.norm(gap) > 1e-3
-    fz = np.array([at_mean[2], 2 * at_mean[2], 0.0])
+    gap, h = window_gap(window, deviation, ContactBatch.of([nominal]).table,
+                        nominal.acting_point == "peg_top", nominal.n_angles,
+                        nominal.peg_radius)  # fmt: skip
+    assert (h[:, 2] > 0).all() and np.linalg.norm(gap) > 1e-3
+    fz = np.array([h[-1, 2], 2 * h[-1, 2], 0.0])
     added = f._window_gap(window, nominal.n_angles, fz)
     np.testing.assert_allclose(added, [gap, 2 * gap, np.zeros(5)], rtol=1e-9, atol=1e-15)
+    theta[:, 5] = 1.5e-5  # 5 µm of clearance: the dither takes the peg on and off the wall
+    f._theta = theta
+    assert not f._window_gap(window, nominal.n_angles, fz).any()
