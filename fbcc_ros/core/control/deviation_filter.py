@@ -22,8 +22,9 @@ nobody knows). It is updated at every n-th sample with the mean response of the 
 the last and their features (:mod:`~fbcc_ros.core.control.state_feed`): each particle predicts
 at their mean, plus the window's gap between the mean response and the response at the mean,
 taken for the cloud's weighted mean particle where it touches throughout the window. Each
-update, every particle's true features give its predicted response (the contact model of eq. 5-13 with its μ, gap and k; at
-:data:`WIDE_ANGLES` angles until the cloud has converged), weighed by the measurement model of
+update, every particle's true features give its predicted response (the contact model of eq.
+5-13 with its μ, gap and k; at :data:`WIDE_ANGLES` angles until the cloud has converged),
+weighed by the measurement model of
 :mod:`~fbcc_ros.core.control.state_likelihood`: in contact, the indicators of both planes (u =
 F/Fz and σ, in which k cancels) with a Cauchy kernel of the sensor's noise over Fz plus a model
 floor, and Fz itself within a band; out of contact in Fz, whether a particle's Fz would show
