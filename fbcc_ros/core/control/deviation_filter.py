@@ -21,7 +21,7 @@ user states, a band of the likelihood covering a part off it; :data:`UNKNOWN_STI
 nobody knows). It is updated at every n-th sample with the mean response of the samples since
 the last and their features (:mod:`~fbcc_ros.core.control.state_feed`): each particle predicts
 at their mean, plus the window's gap between the mean response and the response at the mean,
-taken for the cloud's weighted mean particle where it touches throughout the window. Each
+taken for the cloud's weighted mean particle where it is an interference fit. Each
 update, every particle's true features give its predicted response (the contact model of eq.
 5-13 with its μ, gap and k; at :data:`WIDE_ANGLES` angles until the cloud has converged),
 weighed by the measurement model of
@@ -295,11 +295,13 @@ class DeviationFilter:
         its Fz ``fz`` (P,), for the mean response of the window (n, 5) it is compared with: the
         gap of the cloud's weighted mean particle (:func:`window_gap`), in proportion to each
         particle's Fz over that particle's (k scales a response, and cancels in the
-        indicators); nothing unless that particle touches at every row and at the mean
-        (``state_feed``'s module doc)."""
+        indicators). Only where that particle's part is an interference fit and it touches
+        at every row and at the mean (``state_feed``'s module doc); else nothing."""
         mean = self.weights @ self._theta
         pair = self._table[:, :1].copy()
         pair[[0, 2, 3], 0] = self.nominal.hole_radius + mean[5], mean[4], math.exp(mean[6])
+        if pair[0, 0] >= pair[1, 0]:  # a clearance: the peg touches on one side, or not
+            return np.zeros((len(fz), 5))
         gap, h = window_gap(window, np.array([mean[0], mean[1], 0.0, mean[2], mean[3]]),
                             pair, self._peg_top, angles, self.nominal.peg_radius)
         if not (h[:, 2] > 0.0).all():

@@ -12,8 +12,12 @@ The mean response of a window is not the response at its mean features: the cont
 not linear in them, and the dither moves the peg by about a band within a window.
 :func:`window_gap` is that difference for one hole. The filter takes it for its cloud's weighted
 mean particle and adds it to every particle's prediction, in proportion to the particle's Fz,
-when that particle touches at every sample of the window: across a contact's edge its gap says
-nothing of another particle's, whose edge lies elsewhere. ``docs/boundary-mapping.md``
+where that particle's part is an interference fit and it touches at every sample of the window.
+A peg in an interference touches all around, every particle alike, and its response is smooth
+in the features. In a clearance the peg touches one wall, or none, each particle its own at its
+own place: across a contact's edge the mean particle's gap says nothing of another's, and
+carried to the clearance's particles the gap lost more insertions than it saved
+(``docs/boundary-mapping.md``). ``docs/boundary-mapping.md``
 has what each does to the share named right, and the windows tried instead of the mean of
 every one.
 """

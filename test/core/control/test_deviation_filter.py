@@ -477,7 +477,8 @@ def test_each_particle_gets_the_window_gap_in_proportion_to_its_fz() -> None:
     """The filter adds the gap of its weighted mean particle to every particle's prediction, in
     proportion to the particle's Fz over that particle's: a particle at the mean gets the gap
     itself, one pressing twice as hard twice it, one out of contact nothing; and nothing at all
-    when the mean particle leaves the wall within the window."""
+    when the mean particle is out of contact at a row of the window, or its part is a
+    clearance."""
     sc = scenario_io.load(scenario_io.find("config/scenarios/robust_interference.yaml"))
     nominal = sc.geometry
     f = DeviationFilter(nominal, particles=100, converged_particles=100, seed=2)
@@ -493,6 +494,10 @@ def test_each_particle_gets_the_window_gap_in_proportion_to_its_fz() -> None:
     fz = np.array([h[-1, 2], 2 * h[-1, 2], 0.0])
     added = f._window_gap(window, nominal.n_angles, fz)
     np.testing.assert_allclose(added, [gap, 2 * gap, np.zeros(5)], rtol=1e-9, atol=1e-15)
-    theta[:, 5] = 1.5e-5  # 5 µm of clearance: the dither takes the peg on and off the wall
+    entry = window.copy()
+    entry[:, 2] = np.linspace(-2e-4, 2e-4, 5)  # at the entry: above the hole at first
+    assert not f._window_gap(entry, nominal.n_angles, fz).any()
+    theta[:, 5] = 2e-5  # 10 µm of clearance: none, pressed at every row or not
+    theta[:, 0] = 2e-5
     f._theta = theta
     assert not f._window_gap(window, nominal.n_angles, fz).any()
