@@ -16,10 +16,9 @@ where that particle's part is an interference fit and it touches at every sample
 A peg in an interference touches all around, every particle alike, and its response is smooth
 in the features. In a clearance the peg touches one wall, or none, each particle its own at its
 own place: across a contact's edge the mean particle's gap says nothing of another's, and
-carried to the clearance's particles the gap lost more insertions than it saved
-(``docs/boundary-mapping.md``). ``docs/boundary-mapping.md``
-has what each does to the share named right, and the windows tried instead of the mean of
-every one.
+carried to the clearance's particles the gap lost more insertions than it saved.
+``docs/boundary-mapping.md`` has what each does to the share named right, and the windows tried
+instead of the mean of every one.
 """
 
 from __future__ import annotations
