@@ -6,7 +6,7 @@ One update of the filter costs 0.7–5 ms (500–4000 particles): several 1 kHz 
 controller's process it would hold the loop, since the interpreter runs one thread at a time.
 So the filter runs in a child interpreter, scheduled from its first line only where the loop
 leaves a core idle (:data:`LOWEST`: its start-up and its work yield to the loop), and the loop
-only writes it what the feed hands over: a pickled frame of ~260 bytes on a pipe. The
+only writes it what the feed hands over: a pickled frame of ~440 bytes on a pipe. The
 pipes are non-blocking both ways: a frame under PIPE_BUF is written whole or not at all, so a
 child that falls too far behind costs dropped samples (counted), never a blocked loop. The
 child answers every sample, in order, with P(state) per plane. Until the cloud has converged

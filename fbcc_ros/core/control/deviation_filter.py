@@ -233,10 +233,8 @@ class DeviationFilter:
         (5,), shape (P, 5)."""
         f, _ = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
         if self._frames is None:  # the particles moved: their holes' frames, found once
-            dev = np.zeros((len(self._theta), 5))
-            dev[:, [0, 1, 3, 4]] = self._theta[:, :4]
             self._frames = np.empty((len(self._theta), 6))
-            hole_frames(dev, self.nominal.peg_radius, self._frames)
+            hole_frames(_deviations(self._theta), self.nominal.peg_radius, self._frames)
         out = np.empty((len(self._theta), 5))
         true_rows_at(np.ascontiguousarray(f[0]), self._frames, self.nominal.peg_radius,
                      self.nominal.peg_radius, out)  # fmt: skip
@@ -302,8 +300,8 @@ class DeviationFilter:
         pair[[0, 2, 3], 0] = self.nominal.hole_radius + mean[5], mean[4], math.exp(mean[6])
         if pair[0, 0] >= pair[1, 0]:  # a clearance: the peg touches on one side, or not
             return np.zeros((len(fz), 5))
-        gap, h = window_gap(window, np.array([mean[0], mean[1], 0.0, mean[2], mean[3]]),
-                            pair, self._peg_top, angles, self.nominal.peg_radius)
+        gap, h = window_gap(window, _deviations(mean[None])[0], pair, self._peg_top, angles,
+                            self.nominal.peg_radius)  # fmt: skip
         if not (h[:, 2] > 0.0).all():
             return np.zeros((len(fz), 5))
         return np.outer(fz / h[-1, 2], gap)
@@ -371,6 +369,13 @@ class DeviationFilter:
         spread could take it out: a gap the tolerances do not allow, a negative μ)."""
         np.clip(self._theta, self._low, self._high, out=self._theta)
         self._frames = None
+
+
+def _deviations(theta: FloatArray) -> FloatArray:
+    """The hole deviations (P, 5) ``(dx, dy, 0, θx, θy)`` of particles ``theta`` (P, 7)."""
+    dev = np.zeros((len(theta), 5))
+    dev[:, [0, 1, 3, 4]] = theta[:, :4]
+    return dev
 
 
 def along(features: FloatArray, responses: FloatArray, nominal: PegHole, every: int = 1,
