@@ -38,13 +38,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
-from fbcc_ros.core.contact.kernel import (
-    GL_NODES,
-    GL_WEIGHTS,
-    angle_table,
-    loose_response_kernel,
-    response_kernel,
-)
+from fbcc_ros.core.contact.kernel import WORK_ROWS, angle_table, response_kernel
 from fbcc_ros.core.errors import ConfigError, InputError
 
 #: Order of the features in every feature vector: (dx, dy, l, theta_x, theta_y).
@@ -288,14 +282,11 @@ class ContactBatch:
         table: (7, N) rows R, r, mu, k, L, H, peg_length [SI], one column per pair.
         peg_top: Whether the moments are taken at the peg's top face (else the hole bottom).
         n_angles: Points of the periodic rule over alpha.
-        loose: Evaluate under the kernel's LOOSE_MATH (a measurement model's use, not the
-            simulator's).
     """
 
     table: FloatArray
     peg_top: bool
     n_angles: int
-    loose: bool = False
 
     @classmethod
     def of(cls, pegholes: Sequence[PegHole]) -> ContactBatch:
@@ -341,14 +332,6 @@ class ContactBatch:
             )
         ca, sa = angle_table(self.n_angles)
         out = np.empty((len(features), 5))
-        (loose_response_kernel if self.loose else response_kernel)(
-            np.ascontiguousarray(features, dtype=float),
-            self.table,
-            self.peg_top,
-            ca,
-            sa,
-            GL_NODES,
-            GL_WEIGHTS,
-            out,
-        )
+        response_kernel(np.ascontiguousarray(features, dtype=float), self.table, self.peg_top,
+                        ca, sa, out, np.empty((WORK_ROWS, len(features))))  # fmt: skip
         return out

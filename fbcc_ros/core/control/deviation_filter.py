@@ -258,8 +258,7 @@ class DeviationFilter:
         angles = self.nominal.n_angles
         if len(self._theta) > self.converged_particles:  # not converged: a coarser model
             angles = min(angles, WIDE_ANGLES)
-        predicted = ContactBatch(self._table, self._peg_top, angles,
-                                 loose=True).response(touching)
+        predicted = ContactBatch(self._table, self._peg_top, angles).response(touching)
         if len(window) > 1:
             predicted += self._window_gap(window, angles, predicted[:, 2])
         self.updates += 1

@@ -117,5 +117,5 @@ def window_gap(window: FloatArray, deviation: FloatArray, pair: FloatArray, peg_
     rows = np.vstack([window, window.mean(axis=0)])
     x = true_features(rows, deviation, peg_radius)
     np.maximum(x[:, 2], 0.0, out=x[:, 2])  # above the hole: at its top face
-    h = ContactBatch(pair, peg_top, n_angles, loose=True).response(x)
+    h = ContactBatch(pair, peg_top, n_angles).response(x)
     return h[:-1].mean(axis=0) - h[-1], h

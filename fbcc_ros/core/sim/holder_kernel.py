@@ -30,7 +30,7 @@ T_MIN = 1e-10
 @numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
 def _row_residual(
     xr: FloatArray, h: float, q: FloatArray, tab: FloatArray, peg_top: bool,
-    ca: FloatArray, sa: FloatArray, gl_x: FloatArray, gl_w: FloatArray,
+    ca: FloatArray, sa: FloatArray, work: FloatArray,
     k: FloatArray, tol: FloatArray, fbuf: FloatArray, wbuf: FloatArray, r: FloatArray,
 ) -> float:  # fmt: skip
     """Features of deflection q into fbuf[0], wrench into wbuf[0], scaled residual into r;
@@ -40,7 +40,7 @@ def _row_residual(
     fbuf[0, 2] = xr[2]
     fbuf[0, 3] = xr[3] + q[2]
     fbuf[0, 4] = xr[4] + q[3]
-    contact_kernel.response_kernel(fbuf, tab, peg_top, ca, sa, gl_x, gl_w, wbuf)
+    contact_kernel.response_kernel(fbuf, tab, peg_top, ca, sa, wbuf, work)
     fx, fy, fz, mx, my = wbuf[0, 0], wbuf[0, 1], wbuf[0, 2], wbuf[0, 3], wbuf[0, 4]
     if not peg_top:  # moments from (0, 0, -(L + H)) to the grip point (module doc)
         pl, rad, depth = tab[6, 0], tab[1, 0], tab[4, 0] + tab[5, 0]
@@ -120,12 +120,13 @@ def _solve4(a_in: FloatArray, b: FloatArray, a: FloatArray, out: FloatArray) -> 
 def solve_rows(
     xr: FloatArray, h: FloatArray, q: FloatArray, back: FloatArray, jac: FloatArray,
     have: BoolArray, table: FloatArray, peg_top: bool, ca: FloatArray, sa: FloatArray,
-    gl_x: FloatArray, gl_w: FloatArray, k: FloatArray, tol: FloatArray, max_iter: int,
+    k: FloatArray, tol: FloatArray, max_iter: int,
     fd: FloatArray, x_out: FloatArray, w_out: FloatArray, conv: BoolArray,
     evals: NDArray[np.int64], iters: NDArray[np.int64],
 ) -> None:  # fmt: skip
     n = xr.shape[0]
     tab = np.empty((7, 1))
+    work = np.empty((contact_kernel.WORK_ROWS, 1))  # the contact kernel's scratch
     fbuf, wbuf = np.empty((1, 5)), np.empty((1, 5))
     fbuf_t, wbuf_t = np.empty((1, 5)), np.empty((1, 5))
     r, rt, qt, s, neg = np.empty(4), np.empty(4), np.empty(4), np.empty(4), np.empty(4)
@@ -135,7 +136,7 @@ def solve_rows(
         for m in range(7):
             tab[m, 0] = table[m, c]
         qi, ji = q[i], jac[i]
-        merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, gl_x, gl_w, k, tol,
+        merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, work, k, tol,
                               fbuf, wbuf, r)  # fmt: skip
         n_eval = 1
         for fallback in range(2):  # off the wall: start from the last solution, then from 0
@@ -143,7 +144,7 @@ def solve_rows(
                 break
             for m in range(4):
                 qi[m] = back[i, m] if fallback == 0 else 0.0
-            merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, gl_x, gl_w, k, tol,
+            merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, work, k, tol,
                                   fbuf, wbuf, r)  # fmt: skip
             n_eval += 1
         it, t, fresh = 0, 1.0, False
@@ -155,7 +156,7 @@ def solve_rows(
                     for m in range(4):
                         qt[m] = qi[m]
                     qt[j] += fd[j]
-                    _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, gl_x, gl_w, k, tol,
+                    _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, work, k, tol,
                                   fbuf_t, wbuf_t, rt)  # fmt: skip
                     for m in range(4):
                         ji[m, j] = (rt[m] - r[m]) / (fd[j] * k[j] / tol[j])
@@ -166,13 +167,13 @@ def solve_rows(
             _solve4(ji, neg, scratch, s)
             for m in range(4):
                 qt[m] = qi[m] + t * s[m] * tol[m] / k[m]
-            mt = _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, gl_x, gl_w, k, tol,
+            mt = _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, work, k, tol,
                                fbuf_t, wbuf_t, rt)  # fmt: skip
             n_eval += 1
             if _is_off_wall(qt, wbuf_t):  # no equilibrium there: no deflection, or back
                 for m in range(4):
                     qt[m] = 0.0
-                mt = _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, gl_x, gl_w, k, tol,
+                mt = _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, work, k, tol,
                                    fbuf_t, wbuf_t, rt)  # fmt: skip
                 n_eval += 1
                 if not _touches_nothing(wbuf_t):

@@ -215,9 +215,8 @@ class HolderSolver:
         ca, sa = contact_kernel.angle_table(contact.n_angles)
         holder_kernel.solve_rows(
             np.ascontiguousarray(xr), h, q, back, self._jac, self._have, contact.table,
-            contact.peg_top, ca, sa, contact_kernel.GL_NODES, contact_kernel.GL_WEIGHTS,
-            self._k, self._tol, self.max_iter, holder_kernel.FD_STEP, x, w, conv, evals,
-            iters,
+            contact.peg_top, ca, sa, self._k, self._tol, self.max_iter, holder_kernel.FD_STEP,
+            x, w, conv, evals, iters,
         )  # fmt: skip
         return x, w, conv, int(evals.sum()), int(iters.max(initial=0))
 

@@ -17,6 +17,7 @@ from fbcc_ros.core.contact.segmentation import (
     STATE_INDEX,
     STATES,
     TILT_TOL,
+    direction_matrix,
     feature_state,
     normalised_coordinates,
     plane_state_index,
@@ -102,6 +103,21 @@ def test_theta_zero_maps_onto_the_tilted_line(pair: PegHole) -> None:
     np.testing.assert_allclose(sigma, 0.0, atol=1e-9)
     xoz, _ = response_state(pair.response(f), f[:, 2], pair)
     assert all(s in ("P1", "P-1") for s in xoz)
+
+
+def test_normalised_coordinates_are_the_direction_matrix_over_fz(pair: PegHole) -> None:
+    """(u_x, sigma_x, u_y, sigma_y) = rows (dx, theta_y, dy, theta_x) of A(l) F / Fz, computed
+    without A, to the last bit; a row with Fz <= 0 gives NaN."""
+    rng = np.random.default_rng(3)
+    w = rng.normal(5.0, 20.0, (300, 5))
+    w[::10, 2] = 0.0
+    depth = rng.uniform(0.0, 12e-3, 300)
+    a_w = np.einsum("nij,nj->ni", direction_matrix(depth, pair), w)
+    with np.errstate(divide="ignore"):
+        inv = np.where(w[:, 2] > 0, 1.0 / w[:, 2], np.nan)  # times 1/Fz, as computed
+    expected = (a_w[:, [0, 4, 1, 3]] * inv[:, None]).T
+    assert np.array_equal(np.array(normalised_coordinates(w, depth, pair)), expected,
+                          equal_nan=True)  # fmt: skip
 
 
 def test_dx_zero_boundary_moves_with_tilt(pair: PegHole) -> None:
