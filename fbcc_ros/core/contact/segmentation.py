@@ -36,6 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import PegHole, as_rows
 from fbcc_ros.core.errors import ConfigError, InputError
+from fbcc_ros.core.vector_math import normal_cdf
 
 #: The nine states of one plane, in the order of Fig. 4.
 STATES = ("P0", "P1", "P-1", "D0", "D1", "D-1", "D^0", "D^1", "D^-1")
@@ -65,6 +66,7 @@ STATE_INDEX = np.array([[STATES.index(f"{_LETTER[t]}{d}") for d in (-1, 0, 1)]
 SIGNS = tuple((d, t) for name in STATES for t in (-1, 0, 1) for d in (-1, 0, 1)
               if f"{_LETTER[t]}{d}" == name)  # fmt: skip
 _NAMES = np.asarray(STATES, dtype=object)
+_P0 = STATES.index("P0")
 
 
 def _labels(offset_sign: NDArray[np.int64], tilt_sign: NDArray[np.int64]) -> NDArray[np.object_]:
@@ -121,27 +123,6 @@ class SpreadStates(NamedTuple):
                 out[:, STATE_INDEX[i, j]] += self.tilt_sign[:, i] * self.offset_sign[:, j]
         return out
 
-    def vote(self, weights: FloatArray) -> FloatArray:
-        """``weights @ probabilities()``, shape (9,), without the (N, 9) table (the deviation
-        filter's vote, at every update)."""
-        out = np.zeros(len(STATES))
-        _weighted_joint(np.ascontiguousarray(weights, dtype=float), self.tilt_sign,
-                        self.offset_sign, STATE_INDEX, out)  # fmt: skip
-        out[STATES.index("P0")] += weights @ self.inside
-        return out
-
-
-@numba.njit(cache=True)  # type: ignore[misc]
-def _weighted_joint(weights: FloatArray, tilt_sign: FloatArray, offset_sign: FloatArray,
-                    index: NDArray[np.int64], out: FloatArray) -> None:  # fmt: skip
-    """out[state of (tilt sign, offset sign)] += Σ weight · P(tilt sign) · P(offset sign)."""
-    for n in range(weights.shape[0]):
-        for i in range(3):
-            wt = weights[n] * tilt_sign[n, i]
-            if wt != 0.0:
-                for j in range(3):
-                    out[index[i, j]] += wt * offset_sign[n, j]
-
 
 def spread_states(
     offset: FloatArray,
@@ -157,50 +138,99 @@ def spread_states(
     as :func:`plane_state_index`'s. Eq. 15's no-contact region, |offset| <= m with
     m = R - r cos(θ) - l |sin(θ)| / 2, is taken at the tilt given (at 10 mm deep a tilt spread
     of 0.03 mrad would move m by 0.15 µm)."""
+    rows = _spread_rows(offset, tilt, depth, hole_radius, offset_spread, tilt_spread)
+    n = len(rows[0])
+    inside, tilt_sign, offset_sign = np.empty(n), np.empty((3, n)), np.empty((3, n))
+    _factor_rows(*rows, float(peg_radius), float(offset_spread), float(tilt_spread), inside,
+                 tilt_sign, offset_sign)  # fmt: skip
+    return SpreadStates(inside, tilt_sign.T, offset_sign.T)
+
+
+def spread_vote(
+    offset: FloatArray,
+    tilt: FloatArray,
+    depth: FloatArray,
+    hole_radius: float | FloatArray,
+    peg_radius: float,
+    offset_spread: float,
+    tilt_spread: float,
+    weights: FloatArray,
+) -> FloatArray:
+    """``weights @ spread_states(...).probabilities()``, shape (9,), in one compiled call and
+    without the (N, 9) table: the deviation filter's readout, at every update."""
+    rows = _spread_rows(offset, tilt, depth, hole_radius, offset_spread, tilt_spread)
+    out = np.zeros(len(STATES))
+    _spread_vote(*rows, float(peg_radius), float(offset_spread), float(tilt_spread),
+                 np.ascontiguousarray(weights, dtype=float), STATE_INDEX, out)  # fmt: skip
+    return out
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def _spread_vote(d: FloatArray, t: FloatArray, l: FloatArray, hole: FloatArray, peg: float,
+                 sd: float, st: float, weights: FloatArray, index: NDArray[np.int64],
+                 out: FloatArray) -> None:  # fmt: skip
+    """out[state] = Σ weight · P(state) over the rows of :func:`_factor_rows`: P0 inside
+    eq. 15's region, else P(tilt sign i) · P(offset sign j), summed per pair (i, j)."""
+    n = d.shape[0]
+    inside, tilt_sign, offset_sign = np.empty(n), np.empty((3, n)), np.empty((3, n))
+    _factor_rows(d, t, l, hole, peg, sd, st, inside, tilt_sign, offset_sign)
+    joint, free = np.zeros((3, 3)), 0.0
+    for p in range(n):
+        free += weights[p] * inside[p]
+        for i in range(3):
+            wt = weights[p] * tilt_sign[i, p]
+            for j in range(3):
+                joint[i, j] += wt * offset_sign[j, p]
+    for i in range(3):
+        for j in range(3):
+            out[index[i, j]] = joint[i, j]
+    out[_P0] += free
+
+
+def _spread_rows(offset: FloatArray, tilt: FloatArray, depth: FloatArray,
+                 hole_radius: float | FloatArray, offset_spread: float,
+                 tilt_spread: float,
+                 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:  # fmt: skip
+    """The offset, tilt, depth and hole radius per row, contiguous, for :func:`_factor_rows`;
+    the spreads checked."""
     if not (offset_spread > 0 and tilt_spread > 0):
         raise ConfigError("spread", [offset_spread, tilt_spread], "offset and tilt spreads > 0")
     d = np.ascontiguousarray(offset, dtype=float)
-    rows = (len(d),)
-    t = np.ascontiguousarray(np.broadcast_to(tilt, rows), dtype=float)
-    l = np.ascontiguousarray(np.broadcast_to(depth, rows), dtype=float)
-    hole = np.ascontiguousarray(np.broadcast_to(hole_radius, rows), dtype=float)
-    inside, tilt_sign, offset_sign = np.empty(rows), np.empty((*rows, 3)), np.empty((*rows, 3))
-    _factor_rows(d, t, l, hole, float(peg_radius), float(offset_spread), float(tilt_spread),
-                 inside, tilt_sign, offset_sign)  # fmt: skip
-    return SpreadStates(inside, tilt_sign, offset_sign)
+
+    def per_row(v: float | FloatArray) -> FloatArray:
+        rows = v if np.shape(v) == d.shape else np.broadcast_to(v, d.shape)  # (a view: slow)
+        return np.ascontiguousarray(rows, dtype=float)
+
+    return d, per_row(tilt), per_row(depth), per_row(hole_radius)
 
 
-@numba.njit(cache=True)  # type: ignore[misc]
+@numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
 def _factor_rows(d: FloatArray, t: FloatArray, l: FloatArray, hole: FloatArray, peg: float,
                  sd: float, st: float, inside: FloatArray, tilt_sign: FloatArray,
                  offset_sign: FloatArray) -> None:  # fmt: skip
-    """:func:`spread_states` row by row."""
+    """:func:`spread_states` row by row, the signs' probabilities in rows (3, N). The normal
+    CDFs are in a loop without a call or a branch on a row's values, which vectorises
+    (:mod:`~fbcc_ros.core.vector_math`); eq. 15's margin, whose cosine and sine are calls, and
+    only a clearance's, before it."""
+    margin = np.empty(d.shape[0])
     for i in range(d.shape[0]):
-        tilt_sign[i, 0] = _normal_cdf((-TILT_TOL - t[i]) / st)
-        tilt_sign[i, 2] = _normal_cdf((t[i] - TILT_TOL) / st)
-        tilt_sign[i, 1] = 1.0 - tilt_sign[i, 0] - tilt_sign[i, 2]
-        margin = -math.inf  # |d| <= margin: no contact (eq. 15); none for an interference fit
+        margin[i] = -math.inf  # |d| <= margin: no contact (eq. 15); none for an interference
         if peg < hole[i]:
-            margin = hole[i] - peg * math.cos(t[i]) - l[i] * abs(math.sin(t[i])) / 2.0
-        m = max(margin, 0.0)
-        inside[i] = _normal_cdf((m - d[i]) / sd) - _normal_cdf((-m - d[i]) / sd)
+            margin[i] = hole[i] - peg * math.cos(t[i]) - l[i] * abs(math.sin(t[i])) / 2.0
+    for i in range(d.shape[0]):
+        tilt_sign[0, i] = normal_cdf((-TILT_TOL - t[i]) / st)
+        tilt_sign[2, i] = normal_cdf((t[i] - TILT_TOL) / st)
+        tilt_sign[1, i] = 1.0 - tilt_sign[0, i] - tilt_sign[2, i]
+        m = margin[i] if margin[i] > 0.0 else 0.0
         # outside the region the offset's sign is beyond the wider of its band and the margin
-        cut = max(margin, OFFSET_TOL)
-        offset_sign[i, 0] = _normal_cdf((-cut - d[i]) / sd)
-        offset_sign[i, 2] = _normal_cdf((d[i] - cut) / sd)
+        cut = margin[i] if margin[i] > OFFSET_TOL else OFFSET_TOL
+        offset_sign[0, i] = normal_cdf((-cut - d[i]) / sd)
+        offset_sign[2, i] = normal_cdf((d[i] - cut) / sd)
+        # P(|offset| <= m), exactly 0 without a region (m = 0: both terms alike)
+        inside[i] = normal_cdf((m - d[i]) / sd) - normal_cdf((-m - d[i]) / sd)
         # OFFSET_TOL >= |offset| > margin
-        offset_sign[i, 1] = max(1.0 - inside[i] - offset_sign[i, 0] - offset_sign[i, 2], 0.0)
-
-
-@numba.njit(cache=True)  # type: ignore[misc]
-def _normal_cdf(z: float) -> float:
-    """Φ(z); exactly 0 or 1 beyond 9 deviations (under 1e-18 off), where most of a wide
-    cloud's particles are, without the call."""
-    if z < -9.0:
-        return 0.0
-    if z > 9.0:
-        return 1.0
-    return 0.5 * math.erfc(-z / math.sqrt(2.0))
+        rest = 1.0 - inside[i] - offset_sign[0, i] - offset_sign[2, i]
+        offset_sign[1, i] = rest if rest > 0.0 else 0.0
 
 
 def _plane_feature_state(
@@ -308,9 +338,11 @@ def direct_row(
 
 
 def _direction_terms(depth: ArrayLike, peghole: PegHole) -> tuple[FloatArray, FloatArray]:
-    """sin(gamma) and cos(gamma) / R of eq. (28)-(29)."""
-    gamma = tilt_boundary_angle(depth, peghole)
-    return np.sin(gamma), np.cos(gamma) / peghole.hole_radius
+    """sin(gamma) and cos(gamma) / R of eq. (28)-(29), from tan(gamma) = lever / R without a
+    trigonometric function: sin = tan / sqrt(1 + tan^2), cos = 1 / sqrt(1 + tan^2)."""
+    tan_g = np.asarray(peghole.boundary_lever(depth) / peghole.hole_radius)
+    secant = np.sqrt(1.0 + tan_g * tan_g)
+    return tan_g / secant, 1.0 / (secant * peghole.hole_radius)
 
 
 def normalised_coordinates(

@@ -64,7 +64,7 @@ count from its weights, :data:`REDRAW` times wider than a spread-out, weighed af
 The state per plane is the particles' weighted vote of their states at their true features,
 each particle with its own gap (the clearance's no-contact region) and its features read as
 known to within :data:`READOUT_SPREAD`
-(:func:`~fbcc_ros.core.contact.segmentation.spread_states`): a cloud that has
+(:func:`~fbcc_ros.core.contact.segmentation.spread_vote`): a cloud that has
 weighed hundreds of samples of a peg resting still is surer of its features than the model
 resolves them, and near a state's band it would state 1.0 for either side.
 """
@@ -81,7 +81,7 @@ from numpy.typing import ArrayLike
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.features import hole_frames, true_rows_at
 from fbcc_ros.core.contact.model import ContactBatch, PegHole, as_rows
-from fbcc_ros.core.contact.segmentation import STATES, spread_states
+from fbcc_ros.core.contact.segmentation import STATES, spread_vote
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.control.state_feed import StateFeed, window_gap
 from fbcc_ros.core.control.state_likelihood import (
@@ -213,7 +213,8 @@ class DeviationFilter:
     @_theta.setter
     def _theta(self, value: FloatArray) -> None:
         self._cloud = value
-        #: each particle's hole frame (features.hole_frames), None until needed after a move
+        #: each particle's hole frame (features.hole_frames) and its column of the contact
+        #: model's table, found when first needed after the particles moved
         self._frames: FloatArray | None = None
 
     @property
@@ -235,6 +236,9 @@ class DeviationFilter:
         if self._frames is None:  # the particles moved: their holes' frames, found once
             self._frames = np.empty((len(self._theta), 6))
             hole_frames(_deviations(self._theta), self.nominal.peg_radius, self._frames)
+            self._table[0] = self.nominal.hole_radius + self._theta[:, 5]
+            self._table[2] = self._theta[:, 4]
+            self._table[3] = np.exp(self._theta[:, 6])
         out = np.empty((len(self._theta), 5))
         true_rows_at(np.ascontiguousarray(f[0]), self._frames, self.nominal.peg_radius,
                      self.nominal.peg_radius, out)  # fmt: skip
@@ -252,21 +256,19 @@ class DeviationFilter:
         x = self.true_features(mean)
         touching = x.copy()
         np.maximum(touching[:, 2], 0.0, out=touching[:, 2])
-        self._table[0] = self.nominal.hole_radius + self._theta[:, 5]
-        self._table[2] = self._theta[:, 4]
-        self._table[3] = np.exp(self._theta[:, 6])
         angles = self.nominal.n_angles
         if len(self._theta) > self.converged_particles:  # not converged: a coarser model
             angles = min(angles, WIDE_ANGLES)
         predicted = ContactBatch(self._table, self._peg_top, angles).response(touching)
+        prior = self.weights
         if len(window) > 1:
-            predicted += self._window_gap(window, angles, predicted[:, 2])
+            predicted += self._window_gap(window, angles, predicted[:, 2], prior)
         self.updates += 1
         scale = min(1.0, self.updates / self.anneal) if self.anneal else 1.0
         ll = log_likelihood(w[0], depth, predicted, touching[:, 2], self.nominal, self._noise)
         annealed = self.updates > self.anneal
         if annealed:
-            s = self.surprise(w[0], depth, ll)
+            s = self.surprise(w[0], depth, ll, prior)
             self.surprise_mean += (s - self.surprise_mean) / SURPRISE_MEMORY
         lost = annealed and self.surprise_mean < LOST
         if ll.max() <= CONTACT_MISMATCH and annealed:
@@ -287,14 +289,16 @@ class DeviationFilter:
             self._resample(weights)
         return probabilities
 
-    def _window_gap(self, window: FloatArray, angles: int, fz: FloatArray) -> FloatArray:
+    def _window_gap(self, window: FloatArray, angles: int, fz: FloatArray,
+                    weights: FloatArray) -> FloatArray:  # fmt: skip
         """What to add to each particle's prediction at the window's mean features (P, 5) with
-        its Fz ``fz`` (P,), for the mean response of the window (n, 5) it is compared with: the
+        its Fz ``fz`` (P,) and its normalised weight, for the mean response of the window (n, 5)
+        it is compared with: the
         gap of the cloud's weighted mean particle (:func:`window_gap`), in proportion to each
         particle's Fz over that particle's (k scales a response, and cancels in the
         indicators). Only where that particle's part is an interference fit and it touches
         at every row and at the mean (``state_feed``'s module doc); else nothing."""
-        mean = self.weights @ self._theta
+        mean = weights @ self._theta
         pair = self._table[:, :1].copy()
         pair[[0, 2, 3], 0] = self.nominal.hole_radius + mean[5], mean[4], math.exp(mean[6])
         if pair[0, 0] >= pair[1, 0]:  # a clearance: the peg touches on one side, or not
@@ -303,9 +307,10 @@ class DeviationFilter:
                             self.nominal.peg_radius)  # fmt: skip
         if not (h[:, 2] > 0.0).all():
             return np.zeros((len(fz), 5))
-        return np.outer(fz / h[-1, 2], gap)
+        return (fz / h[-1, 2])[:, None] * gap
 
-    def surprise(self, w: FloatArray, depth: float, ll: FloatArray) -> float:
+    def surprise(self, w: FloatArray, depth: float, ll: FloatArray,
+                 weights: FloatArray | None = None) -> float:  # fmt: skip
         """How much better (> 0) or worse (< 0) the cloud explains one sample (5,), whose
         log-likelihood per particle is ``ll``, than a particle at the truth would on average
         [nats]: the log of the weighted mean likelihood plus what the sensor's noise alone
@@ -313,7 +318,8 @@ class DeviationFilter:
         settled where the hole is not pays tens of nats a sample where a right one pays its
         noise's."""
         top = float(ll.max())
-        mean = float(np.log(self.weights @ np.exp(ll - top))) + top
+        weights = self.weights if weights is None else weights
+        mean = float(np.log(weights @ np.exp(ll - top))) + top
         return mean + noise_misfit(w, depth, self.nominal, self._noise)
 
     def states(self, x: FloatArray, weights: FloatArray | None = None,
@@ -323,8 +329,8 @@ class DeviationFilter:
         tilt [rad]); ``weights`` the normalised ones when the caller has them."""
         weights = self.weights if weights is None else weights
         hole = self.nominal.hole_radius + self._theta[:, 5]
-        return np.array([spread_states(d, t, x[:, 2], hole, self.nominal.peg_radius,
-                                       *spread).vote(weights)
+        return np.array([spread_vote(d, t, x[:, 2], hole, self.nominal.peg_radius, *spread,
+                                     weights)
                          for d, t in ((x[:, 0], x[:, 4]), (x[:, 1], x[:, 3]))])  # fmt: skip
 
     def _scatter(self, times: float) -> None:

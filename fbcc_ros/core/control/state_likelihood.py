@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from fbcc_ros.core.arrays import FloatArray
@@ -78,18 +79,44 @@ def log_likelihood(w: FloatArray, measured_depth: float, predicted: FloatArray, 
             ll -= lateral_misfit(w, predicted, noise)
         return ll  # type: ignore[no-any-return]
     fz = w[2]
-    measured = np.array(normalised_coordinates(w[None], np.array([measured_depth]),
-                                               nominal)).ravel()  # fmt: skip
-    with np.errstate(all="ignore"):
-        p = np.column_stack(normalised_coordinates(predicted, depth, nominal))
-    e = (p - measured) / _indicator_scales(fz, nominal, noise)
-    ll = -np.sum(np.log1p(e**2), axis=1)
-    with np.errstate(divide="ignore"):  # a particle out of contact: CONTACT_MISMATCH below
-        excess = np.abs(np.log(predicted[:, 2] / fz)) - math.log(MAGNITUDE_BAND)
-    e_fz = np.maximum(excess, 0.0) / (noise[2] / fz + MAGNITUDE_FLOOR)
-    ll -= np.log1p(e_fz**2)
-    floor = np.where(depth > ENTRY_DEPTH, 0.0, FZ_MIN)  # what predicts contact
-    return np.where(predicted[:, 2] > floor, ll, CONTACT_MISMATCH)  # type: ignore[no-any-return]
+    measured = np.array(normalised_coordinates(w, measured_depth, nominal))
+    with np.errstate(all="ignore"):  # a particle out of contact: CONTACT_MISMATCH
+        p = np.array(normalised_coordinates(predicted, depth, nominal))
+    ll = np.empty(len(predicted))
+    _contact_rows(p, predicted[:, 2], depth, measured, _indicator_scales(fz, nominal, noise), fz,
+                  noise[2] / fz + MAGNITUDE_FLOOR, ll)  # fmt: skip
+    return ll
+
+
+#: The cap of each Cauchy factor 1 + e^2 in :func:`_contact_rows`' product (four of them stay
+#: finite); a particle that far off is CONTACT_MISMATCH's 30 nats below anyway.
+_FACTOR_CAP = 1e75
+
+
+@numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
+def _contact_rows(
+    p: FloatArray, fz_p: FloatArray, depth: FloatArray, measured: FloatArray,
+    scales: FloatArray, fz: float, fz_scale: float, out: FloatArray,
+) -> None:  # fmt: skip
+    """:func:`log_likelihood` of a sample in contact into ``out`` (P,), from the particles'
+    indicators ``p`` (4, P), Fz (P,) and depths; the sample's indicators ``measured`` (4,),
+    the kernels' scales (4,), its Fz and the Fz kernel's scale."""
+    log_band = math.log(MAGNITUDE_BAND)
+    for i in range(out.shape[0]):
+        if not fz_p[i] > (0.0 if depth[i] > ENTRY_DEPTH else FZ_MIN):  # predicts no contact
+            out[i] = CONTACT_MISMATCH
+            continue
+        # Σ log(1 + e^2) over the indicators as the log of one product: a logarithm, not four
+        product = 1.0
+        for j in range(4):
+            e = (p[j, i] - measured[j]) / scales[j]
+            product *= min(1.0 + e * e, _FACTOR_CAP)
+        ll = -math.log(product)
+        excess = abs(math.log(fz_p[i] / fz)) - log_band  # Fz beyond its band
+        if excess > 0.0:
+            e = excess / fz_scale
+            ll -= math.log1p(e * e)
+        out[i] = ll
 
 
 def lateral_misfit(w: FloatArray, predicted: FloatArray, noise: FloatArray) -> FloatArray:

@@ -13,9 +13,11 @@ from hypothesis import strategies as st
 from fbcc_ros.core.contact.features import (
     R_ALIGNED,
     features_from_pose,
+    hole_frames,
     pose_from_features,
     spin_of,
     true_features,
+    true_rows_at,
 )
 from fbcc_ros.core.errors import InputError
 
@@ -154,3 +156,19 @@ def test_true_features_compose_the_deviated_hole(dev, dx, dy, depth, tx, ty) -> 
     # the peg at the believed features 0 has the true features x_dev
     np.testing.assert_allclose(true_features(np.zeros(5), deviation, R)[0], deviation,
                                atol=1e-15)  # fmt: skip
+
+
+def test_the_filters_true_rows_are_the_plants_to_rounding() -> None:
+    """true_rows_at (one pose in many holes, the tilts by vector_math.arctan) against the
+    plant's exact true_features: offsets and depths to 1e-18 m, tilts to 1e-15 rad, over the
+    deviation filter's prior (±0.1 mm, ±2°) and tilted poses."""
+    rng = np.random.default_rng(4)
+    dev = np.column_stack([rng.uniform(-1e-4, 1e-4, (2000, 2)), np.zeros(2000),
+                           rng.uniform(-0.035, 0.035, (2000, 2))])  # fmt: skip
+    frames, out = np.empty((2000, 6)), np.empty((2000, 5))
+    hole_frames(dev, R, frames)
+    for pose in ([0.0, 0.0, 0.0, 0.0, 0.0], [3e-5, -2e-5, 4e-3, 0.03, -0.02]):
+        true_rows_at(np.array(pose), frames, R, R, out)
+        exact = true_features(np.tile(pose, (2000, 1)), dev, R)
+        np.testing.assert_allclose(out[:, :3], exact[:, :3], rtol=0, atol=1e-18)
+        np.testing.assert_allclose(out[:, 3:], exact[:, 3:], rtol=0, atol=1e-15)
