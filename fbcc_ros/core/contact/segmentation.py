@@ -27,7 +27,6 @@ Boundary mapping (DESIGN §5 on eq. 21, 24, 28-29). In the normalised plane of F
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -36,7 +35,6 @@ from numpy.typing import ArrayLike, NDArray
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import PegHole, as_rows
 from fbcc_ros.core.errors import ConfigError, InputError
-from fbcc_ros.core.vector_math import normal_cdf
 
 #: The nine states of one plane, in the order of Fig. 4.
 STATES = ("P0", "P1", "P-1", "D0", "D1", "D-1", "D^0", "D^1", "D^-1")
@@ -66,7 +64,6 @@ STATE_INDEX = np.array([[STATES.index(f"{_LETTER[t]}{d}") for d in (-1, 0, 1)]
 SIGNS = tuple((d, t) for name in STATES for t in (-1, 0, 1) for d in (-1, 0, 1)
               if f"{_LETTER[t]}{d}" == name)  # fmt: skip
 _NAMES = np.asarray(STATES, dtype=object)
-_P0 = STATES.index("P0")
 
 
 def _labels(offset_sign: NDArray[np.int64], tilt_sign: NDArray[np.int64]) -> NDArray[np.object_]:
@@ -102,135 +99,6 @@ def plane_state_index(
     inside = (np.asarray(peg_radius) < np.asarray(hole_radius)) & (reach <= hole_radius)
     # an interference fit: P0 only at the point d = 0, theta = 0 (eq. 17), the bands above
     return np.where(inside, STATES.index("P0"), index)  # type: ignore[no-any-return]
-
-
-class SpreadStates(NamedTuple):
-    """The states of one plane's features known to within a normal spread
-    (:func:`spread_states`), per row: P(in eq. 15's no-contact region) (N,), and P(sign -1, 0,
-    +1) of the tilt and, outside the region, of the offset, both (N, 3). The two signs are
-    independent."""
-
-    inside: FloatArray
-    tilt_sign: FloatArray
-    offset_sign: FloatArray
-
-    def probabilities(self) -> FloatArray:
-        """P(state) per row, shape (N, 9) over :data:`STATES`."""
-        out = np.zeros((len(self.inside), len(STATES)))
-        out[:, STATES.index("P0")] = self.inside
-        for i in range(3):
-            for j in range(3):
-                out[:, STATE_INDEX[i, j]] += self.tilt_sign[:, i] * self.offset_sign[:, j]
-        return out
-
-
-def spread_states(
-    offset: FloatArray,
-    tilt: FloatArray,
-    depth: FloatArray,
-    hole_radius: float | FloatArray,
-    peg_radius: float,
-    offset_spread: float,
-    tilt_spread: float,
-) -> SpreadStates:
-    """The states of one plane for features known to within a normal spread: offset ~
-    N(offset, offset_spread²), tilt ~ N(tilt, tilt_spread²), both > 0, independent; the bands
-    as :func:`plane_state_index`'s. Eq. 15's no-contact region, |offset| <= m with
-    m = R - r cos(θ) - l |sin(θ)| / 2, is taken at the tilt given (at 10 mm deep a tilt spread
-    of 0.03 mrad would move m by 0.15 µm)."""
-    rows = _spread_rows(offset, tilt, depth, hole_radius, offset_spread, tilt_spread)
-    n = len(rows[0])
-    inside, tilt_sign, offset_sign = np.empty(n), np.empty((3, n)), np.empty((3, n))
-    _factor_rows(*rows, float(peg_radius), float(offset_spread), float(tilt_spread), inside,
-                 tilt_sign, offset_sign)  # fmt: skip
-    return SpreadStates(inside, tilt_sign.T, offset_sign.T)
-
-
-def spread_vote(
-    offset: FloatArray,
-    tilt: FloatArray,
-    depth: FloatArray,
-    hole_radius: float | FloatArray,
-    peg_radius: float,
-    offset_spread: float,
-    tilt_spread: float,
-    weights: FloatArray,
-) -> FloatArray:
-    """``weights @ spread_states(...).probabilities()``, shape (9,), in one compiled call and
-    without the (N, 9) table: the deviation filter's readout, at every update."""
-    rows = _spread_rows(offset, tilt, depth, hole_radius, offset_spread, tilt_spread)
-    out = np.zeros(len(STATES))
-    _spread_vote(*rows, float(peg_radius), float(offset_spread), float(tilt_spread),
-                 np.ascontiguousarray(weights, dtype=float), STATE_INDEX, out)  # fmt: skip
-    return out
-
-
-@numba.njit(cache=True)  # type: ignore[misc]
-def _spread_vote(d: FloatArray, t: FloatArray, l: FloatArray, hole: FloatArray, peg: float,
-                 sd: float, st: float, weights: FloatArray, index: NDArray[np.int64],
-                 out: FloatArray) -> None:  # fmt: skip
-    """out[state] = Σ weight · P(state) over the rows of :func:`_factor_rows`: P0 inside
-    eq. 15's region, else P(tilt sign i) · P(offset sign j), summed per pair (i, j)."""
-    n = d.shape[0]
-    inside, tilt_sign, offset_sign = np.empty(n), np.empty((3, n)), np.empty((3, n))
-    _factor_rows(d, t, l, hole, peg, sd, st, inside, tilt_sign, offset_sign)
-    joint, free = np.zeros((3, 3)), 0.0
-    for p in range(n):
-        free += weights[p] * inside[p]
-        for i in range(3):
-            wt = weights[p] * tilt_sign[i, p]
-            for j in range(3):
-                joint[i, j] += wt * offset_sign[j, p]
-    for i in range(3):
-        for j in range(3):
-            out[index[i, j]] = joint[i, j]
-    out[_P0] += free
-
-
-def _spread_rows(offset: FloatArray, tilt: FloatArray, depth: FloatArray,
-                 hole_radius: float | FloatArray, offset_spread: float,
-                 tilt_spread: float,
-                 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:  # fmt: skip
-    """The offset, tilt, depth and hole radius per row, contiguous, for :func:`_factor_rows`;
-    the spreads checked."""
-    if not (offset_spread > 0 and tilt_spread > 0):
-        raise ConfigError("spread", [offset_spread, tilt_spread], "offset and tilt spreads > 0")
-    d = np.ascontiguousarray(offset, dtype=float)
-
-    def per_row(v: float | FloatArray) -> FloatArray:
-        rows = v if np.shape(v) == d.shape else np.broadcast_to(v, d.shape)  # (a view: slow)
-        return np.ascontiguousarray(rows, dtype=float)
-
-    return d, per_row(tilt), per_row(depth), per_row(hole_radius)
-
-
-@numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
-def _factor_rows(d: FloatArray, t: FloatArray, l: FloatArray, hole: FloatArray, peg: float,
-                 sd: float, st: float, inside: FloatArray, tilt_sign: FloatArray,
-                 offset_sign: FloatArray) -> None:  # fmt: skip
-    """:func:`spread_states` row by row, the signs' probabilities in rows (3, N). The normal
-    CDFs are in a loop without a call or a branch on a row's values, which vectorises
-    (:mod:`~fbcc_ros.core.vector_math`); eq. 15's margin, whose cosine and sine are calls, and
-    only a clearance's, before it."""
-    margin = np.empty(d.shape[0])
-    for i in range(d.shape[0]):
-        margin[i] = -math.inf  # |d| <= margin: no contact (eq. 15); none for an interference
-        if peg < hole[i]:
-            margin[i] = hole[i] - peg * math.cos(t[i]) - l[i] * abs(math.sin(t[i])) / 2.0
-    for i in range(d.shape[0]):
-        tilt_sign[0, i] = normal_cdf((-TILT_TOL - t[i]) / st)
-        tilt_sign[2, i] = normal_cdf((t[i] - TILT_TOL) / st)
-        tilt_sign[1, i] = 1.0 - tilt_sign[0, i] - tilt_sign[2, i]
-        m = margin[i] if margin[i] > 0.0 else 0.0
-        # outside the region the offset's sign is beyond the wider of its band and the margin
-        cut = margin[i] if margin[i] > OFFSET_TOL else OFFSET_TOL
-        offset_sign[0, i] = normal_cdf((-cut - d[i]) / sd)
-        offset_sign[2, i] = normal_cdf((d[i] - cut) / sd)
-        # P(|offset| <= m), exactly 0 without a region (m = 0: both terms alike)
-        inside[i] = normal_cdf((m - d[i]) / sd) - normal_cdf((-m - d[i]) / sd)
-        # OFFSET_TOL >= |offset| > margin
-        rest = 1.0 - inside[i] - offset_sign[0, i] - offset_sign[2, i]
-        offset_sign[1, i] = rest if rest > 0.0 else 0.0
 
 
 def _plane_feature_state(

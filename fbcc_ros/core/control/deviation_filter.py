@@ -64,7 +64,7 @@ count from its weights, :data:`REDRAW` times wider than a spread-out, weighed af
 The state per plane is the particles' weighted vote of their states at their true features,
 each particle with its own gap (the clearance's no-contact region) and its features read as
 known to within :data:`READOUT_SPREAD`
-(:func:`~fbcc_ros.core.contact.segmentation.spread_vote`): a cloud that has
+(:func:`~fbcc_ros.core.contact.spread_states.spread_vote`): a cloud that has
 weighed hundreds of samples of a peg resting still is surer of its features than the model
 resolves them, and near a state's band it would state 1.0 for either side.
 """
@@ -81,7 +81,8 @@ from numpy.typing import ArrayLike
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.features import hole_frames, true_rows_at
 from fbcc_ros.core.contact.model import ContactBatch, PegHole, as_rows
-from fbcc_ros.core.contact.segmentation import STATES, spread_vote
+from fbcc_ros.core.contact.segmentation import STATES
+from fbcc_ros.core.contact.spread_states import spread_vote
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.control.state_feed import StateFeed, window_gap
 from fbcc_ros.core.control.state_likelihood import (

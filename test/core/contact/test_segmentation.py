@@ -22,9 +22,8 @@ from fbcc_ros.core.contact.segmentation import (
     normalised_coordinates,
     plane_state_index,
     response_state,
-    spread_states,
-    spread_vote,
 )
+from fbcc_ros.core.contact.spread_states import spread_states, spread_vote
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.paper import paper_pair
 
