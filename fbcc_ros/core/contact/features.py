@@ -100,34 +100,26 @@ def _axis_and_tip(
     return a_x, a_y, a_z, dx - along * a_x, dy - along * a_y, -(depth * a_z - peg_radius * sin_t)
 
 
-@numba.njit(cache=True)  # type: ignore[misc]
+@numba.njit(cache=True, inline="always")  # type: ignore[misc]
 def _features_of(
     a_x: float, a_y: float, a_z: float, p_x: float, p_y: float, p_z: float, peg_radius: float,
-    out: FloatArray, exact: bool = True,
-) -> None:  # fmt: skip
-    """Features into ``out`` (5,) of the peg with upward axis ``a`` and tip centre ``p`` in {H}.
-    Not ``exact``: the tilts by :func:`~fbcc_ros.core.vector_math.arctan` of a_x/a_z (a_z > 0)
-    instead of libm's atan2, within 2 ulp of it, and sin(θ) by a square root instead of hypot
-    (the deviation filter's particles, a quarter of the time; the plant's features stay
-    exact)."""
-    if not exact:
-        sin_t = math.sqrt(a_x * a_x + a_y * a_y)
-        depth = (-p_z + peg_radius * sin_t) / a_z
-        along = 0.5 * depth + peg_radius * sin_t * (1.0 - 1.0 / a_z)
-        out[0], out[1], out[2] = p_x + along * a_x, p_y + along * a_y, depth
-        out[3], out[4] = arctan(-a_y / a_z), arctan(a_x / a_z)
-        return
-    sin_t = math.hypot(a_x, a_y)
+    exact: bool,
+) -> tuple[float, float, float, float, float]:  # fmt: skip
+    """Features of the peg with upward axis ``a`` and tip centre ``p`` in {H}. Not ``exact``:
+    the tilts by :func:`~fbcc_ros.core.vector_math.arctan` of a_x/a_z (a_z > 0) instead of
+    libm's atan2, within 2 ulp of it, and sin(θ) by a square root instead of hypot, so that a
+    loop over many holes vectorises (the deviation filter's particles; the plant's features
+    stay exact)."""
+    sin_t = math.hypot(a_x, a_y) if exact else math.sqrt(a_x * a_x + a_y * a_y)
     # Lowest point of the end face at depth l cos(theta) (eq. 5, s = 0): it is r sin(theta)
     # below the tip centre, which is at depth -p_z.
     depth = (-p_z + peg_radius * sin_t) / a_z
     # O_p of eq. 5 at the slice through the axis point l/2 from the tip; a_xy = sin(theta) e.
     along = 0.5 * depth + peg_radius * sin_t * (1.0 - 1.0 / a_z)
-    out[0] = p_x + along * a_x
-    out[1] = p_y + along * a_y
-    out[2] = depth
-    out[3] = math.atan2(-a_y, a_z)
-    out[4] = math.atan2(a_x, a_z)
+    x, y = p_x + along * a_x, p_y + along * a_y
+    if exact:
+        return x, y, depth, math.atan2(-a_y, a_z), math.atan2(a_x, a_z)
+    return x, y, depth, arctan(-a_y / a_z), arctan(a_x / a_z)
 
 
 def features_from_pose(
@@ -143,10 +135,8 @@ def features_from_pose(
     rot = np.asarray(rotation_peg_in_hole, dtype=float)
     pos = np.asarray(position_peg_in_hole, dtype=float)
     a_z = _check_tilted_less_than_90(rot)
-    out = np.empty(5)
-    _features_of(-float(rot[0, 2]), -float(rot[1, 2]), a_z, float(pos[0]), float(pos[1]),
-                 float(pos[2]), peg_radius, out)  # fmt: skip
-    return out
+    return np.array(_features_of(-float(rot[0, 2]), -float(rot[1, 2]), a_z, float(pos[0]),
+                                 float(pos[1]), float(pos[2]), peg_radius, True))  # fmt: skip
 
 
 def pose_from_features(
@@ -202,7 +192,8 @@ def in_deviated_hole(
     b_x, b_y, b_z, q_x, q_y, q_z = _hole_frame(deviation, r_nominal)
     a_x, a_y, a_z, p_x, p_y, p_z = _axis_and_tip(pose[0], pose[1], pose[2], pose[3], pose[4],
                                                  r_nominal)  # fmt: skip
-    _in_hole(a_x, a_y, a_z, p_x, p_y, p_z, b_x, b_y, b_z, q_x, q_y, q_z, r_true, out)
+    out[0], out[1], out[2], out[3], out[4] = _in_hole(
+        a_x, a_y, a_z, p_x, p_y, p_z, b_x, b_y, b_z, q_x, q_y, q_z, r_true, True)
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
@@ -214,20 +205,19 @@ def _hole_frame(
     return _axis_and_tip(deviation[0], deviation[1], 0.0, deviation[3], deviation[4], r_nominal)
 
 
-@numba.njit(cache=True)  # type: ignore[misc]
+@numba.njit(cache=True, inline="always")  # type: ignore[misc]
 def _in_hole(
     a_x: float, a_y: float, a_z: float, p_x: float, p_y: float, p_z: float,
     b_x: float, b_y: float, b_z: float, q_x: float, q_y: float, q_z: float,
-    r_true: float, out: FloatArray, exact: bool = True,
-) -> None:  # fmt: skip
-    """Features into ``out`` (5,) of the peg with axis ``a`` and tip ``p`` in the believed
-    hole, in the hole whose P(x_dev) has axis ``b`` and tip ``q`` (``exact``: as
-    :func:`_features_of`)."""
+    r_true: float, exact: bool,
+) -> tuple[float, float, float, float, float]:  # fmt: skip
+    """Features of the peg with axis ``a`` and tip ``p`` in the believed hole, in the hole
+    whose P(x_dev) has axis ``b`` and tip ``q`` (``exact``: as :func:`_features_of`)."""
     c = 1.0 / (1.0 + b_z)  # S(b), the rows of _swing
     s00, s01, s02 = 1.0 - b_x * b_x * c, -b_x * b_y * c, b_x
     s11, s12 = 1.0 - b_y * b_y * c, b_y
     # the axis turns with S(b); the tip also moves by q
-    _features_of(
+    return _features_of(
         s00 * a_x + s01 * a_y + s02 * a_z,
         s01 * a_x + s11 * a_y + s12 * a_z,
         -b_x * a_x - b_y * a_y + b_z * a_z,
@@ -235,7 +225,6 @@ def _in_hole(
         s01 * p_x + s11 * p_y + s12 * p_z + q_y,
         -b_x * p_x - b_y * p_y + b_z * p_z + q_z,
         r_true,
-        out,
         exact,
     )
 
@@ -253,26 +242,28 @@ def true_rows(
 
 @numba.njit(cache=True)  # type: ignore[misc]
 def hole_frames(deviation: FloatArray, r_nominal: float, out: FloatArray) -> None:
-    """Into ``out`` (N, 6), per hole at ``deviation`` (N, 5): the axis b and tip q of P(x_dev)
-    (:func:`in_deviated_hole`), what :func:`true_rows_at` needs of it."""
+    """Into ``out`` (6, N), per hole at ``deviation`` (N, 5): the axis b and tip q of P(x_dev)
+    (:func:`in_deviated_hole`), what :func:`true_rows_at` needs of it, one row per
+    coordinate."""
     for i in range(deviation.shape[0]):
-        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = _hole_frame(
+        out[0, i], out[1, i], out[2, i], out[3, i], out[4, i], out[5, i] = _hole_frame(
             deviation[i], r_nominal)
 
 
-@numba.njit(cache=True)  # type: ignore[misc]
+@numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
 def true_rows_at(pose: FloatArray, frames: FloatArray, r_nominal: float, r_true: float,
                  out: FloatArray) -> None:  # fmt: skip
-    """:func:`true_rows` of one pose (5,) in many holes, given by their frames (N, 6,
-    :func:`hole_frames`), with one true r (the deviation filter's particles, whose holes move
-    less often than the peg): the pose's axis and tip are found once, and each row's tilts
-    within 2 ulp (:func:`_features_of` not exact)."""
+    """:func:`true_rows` of one pose (5,) in many holes, given by their frames (6, N,
+    :func:`hole_frames`), with one true r, into ``out`` (5, N), one row per feature (the
+    deviation filter's particles, whose holes move less often than the peg). The pose's axis
+    and tip are found once; the loop over the holes vectorises, each one's tilts within 2 ulp
+    (:func:`_features_of` not exact)."""
     a_x, a_y, a_z, p_x, p_y, p_z = _axis_and_tip(pose[0], pose[1], pose[2], pose[3], pose[4],
                                                  r_nominal)  # fmt: skip
-    for i in range(frames.shape[0]):
-        f = frames[i]
-        _in_hole(a_x, a_y, a_z, p_x, p_y, p_z, f[0], f[1], f[2], f[3], f[4], f[5], r_true,
-                 out[i], False)  # fmt: skip
+    for i in range(frames.shape[1]):
+        out[0, i], out[1, i], out[2, i], out[3, i], out[4, i] = _in_hole(
+            a_x, a_y, a_z, p_x, p_y, p_z, frames[0, i], frames[1, i], frames[2, i],
+            frames[3, i], frames[4, i], frames[5, i], r_true, False)
 
 
 def true_features(

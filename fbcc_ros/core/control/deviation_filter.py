@@ -232,18 +232,18 @@ class DeviationFilter:
 
     def true_features(self, features: ArrayLike) -> FloatArray:
         """Each particle's true features (in the hole where it puts it) at the measured ones
-        (5,), shape (P, 5)."""
+        (5,), shape (P, 5): a view of a (5, P) array, each feature's column contiguous."""
         f, _ = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
         if self._frames is None:  # the particles moved: their holes' frames, found once
-            self._frames = np.empty((len(self._theta), 6))
+            self._frames = np.empty((6, len(self._theta)))
             hole_frames(_deviations(self._theta), self.nominal.peg_radius, self._frames)
             self._table[0] = self.nominal.hole_radius + self._theta[:, 5]
             self._table[2] = self._theta[:, 4]
             self._table[3] = np.exp(self._theta[:, 6])
-        out = np.empty((len(self._theta), 5))
+        out = np.empty((5, len(self._theta)))
         true_rows_at(np.ascontiguousarray(f[0]), self._frames, self.nominal.peg_radius,
                      self.nominal.peg_radius, out)  # fmt: skip
-        return out
+        return out.T
 
     def update(self, response: ArrayLike, features: ArrayLike) -> FloatArray:
         """Weigh the particles by one compensated response (5,) in {H} [N, N·m], the mean of the
@@ -255,7 +255,7 @@ class DeviationFilter:
         mean = window.mean(axis=0)
         depth = max(float(mean[2]), 0.0)
         x = self.true_features(mean)
-        touching = x.copy()
+        touching = np.ascontiguousarray(x)  # the contact model's rows
         np.maximum(touching[:, 2], 0.0, out=touching[:, 2])
         angles = self.nominal.n_angles
         if len(self._theta) > self.converged_particles:  # not converged: a coarser model

@@ -165,10 +165,11 @@ def test_the_filters_true_rows_are_the_plants_to_rounding() -> None:
     rng = np.random.default_rng(4)
     dev = np.column_stack([rng.uniform(-1e-4, 1e-4, (2000, 2)), np.zeros(2000),
                            rng.uniform(-0.035, 0.035, (2000, 2))])  # fmt: skip
-    frames, out = np.empty((2000, 6)), np.empty((2000, 5))
+    frames, out = np.empty((6, 2000)), np.empty((5, 2000))
     hole_frames(dev, R, frames)
     for pose in ([0.0, 0.0, 0.0, 0.0, 0.0], [3e-5, -2e-5, 4e-3, 0.03, -0.02]):
         true_rows_at(np.array(pose), frames, R, R, out)
+        out_rows = out.T
         exact = true_features(np.tile(pose, (2000, 1)), dev, R)
-        np.testing.assert_allclose(out[:, :3], exact[:, :3], rtol=0, atol=1e-18)
-        np.testing.assert_allclose(out[:, 3:], exact[:, 3:], rtol=0, atol=1e-15)
+        np.testing.assert_allclose(out_rows[:, :3], exact[:, :3], rtol=0, atol=1e-18)
+        np.testing.assert_allclose(out_rows[:, 3:], exact[:, 3:], rtol=0, atol=1e-15)
