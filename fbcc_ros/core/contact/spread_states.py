@@ -1,6 +1,6 @@
 """The states of one plane for features known only to within a normal spread (the deviation
 filter's readout, :mod:`~fbcc_ros.core.control.deviation_filter`): P(state) per row, and the
-weighted vote of many rows in one compiled call. The bands and eq. 15's no-contact region are
+weighted vote of many rows. The bands and eq. 15's no-contact region are
 those of :func:`~fbcc_ros.core.contact.segmentation.plane_state_index`."""
 
 from __future__ import annotations
@@ -39,6 +39,33 @@ class SpreadStates(NamedTuple):
                 out[:, STATE_INDEX[i, j]] += self.tilt_sign[:, i] * self.offset_sign[:, j]
         return out
 
+    def vote(self, weights: FloatArray) -> FloatArray:
+        """``weights @ probabilities()``, shape (9,), without the (N, 9) table (the deviation
+        filter's readout, at every update)."""
+        out = np.zeros(len(STATES))
+        _weighted_joint(np.ascontiguousarray(weights, dtype=float), self.inside,
+                        self.tilt_sign.T, self.offset_sign.T, STATE_INDEX, out)  # fmt: skip
+        return out
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def _weighted_joint(weights: FloatArray, inside: FloatArray, tilt_sign: FloatArray,
+                    offset_sign: FloatArray, index: NDArray[np.int64],
+                    out: FloatArray) -> None:  # fmt: skip
+    """out[state] = Σ weight · P(state): P0 inside eq. 15's region, else P(tilt sign i) ·
+    P(offset sign j), summed per pair (i, j); the signs' probabilities in rows (3, N)."""
+    joint, free = np.zeros((3, 3)), 0.0
+    for p in range(weights.shape[0]):
+        free += weights[p] * inside[p]
+        for i in range(3):
+            wt = weights[p] * tilt_sign[i, p]
+            for j in range(3):
+                joint[i, j] += wt * offset_sign[j, p]
+    for i in range(3):
+        for j in range(3):
+            out[index[i, j]] = joint[i, j]
+    out[_P0] += free
+
 
 def spread_states(
     offset: FloatArray,
@@ -60,47 +87,6 @@ def spread_states(
     _factor_rows(*rows, float(peg_radius), float(offset_spread), float(tilt_spread), inside,
                  tilt_sign, offset_sign)  # fmt: skip
     return SpreadStates(inside, tilt_sign.T, offset_sign.T)
-
-
-def spread_vote(
-    offset: FloatArray,
-    tilt: FloatArray,
-    depth: FloatArray,
-    hole_radius: float | FloatArray,
-    peg_radius: float,
-    offset_spread: float,
-    tilt_spread: float,
-    weights: FloatArray,
-) -> FloatArray:
-    """``weights @ spread_states(...).probabilities()``, shape (9,), in one compiled call and
-    without the (N, 9) table: the deviation filter's readout, at every update."""
-    rows = _spread_rows(offset, tilt, depth, hole_radius, offset_spread, tilt_spread)
-    out = np.zeros(len(STATES))
-    _spread_vote(*rows, float(peg_radius), float(offset_spread), float(tilt_spread),
-                 np.ascontiguousarray(weights, dtype=float), STATE_INDEX, out)  # fmt: skip
-    return out
-
-
-@numba.njit(cache=True)  # type: ignore[misc]
-def _spread_vote(d: FloatArray, t: FloatArray, l: FloatArray, hole: FloatArray, peg: float,
-                 sd: float, st: float, weights: FloatArray, index: NDArray[np.int64],
-                 out: FloatArray) -> None:  # fmt: skip
-    """out[state] = Σ weight · P(state) over the rows of :func:`_factor_rows`: P0 inside
-    eq. 15's region, else P(tilt sign i) · P(offset sign j), summed per pair (i, j)."""
-    n = d.shape[0]
-    inside, tilt_sign, offset_sign = np.empty(n), np.empty((3, n)), np.empty((3, n))
-    _factor_rows(d, t, l, hole, peg, sd, st, inside, tilt_sign, offset_sign)
-    joint, free = np.zeros((3, 3)), 0.0
-    for p in range(n):
-        free += weights[p] * inside[p]
-        for i in range(3):
-            wt = weights[p] * tilt_sign[i, p]
-            for j in range(3):
-                joint[i, j] += wt * offset_sign[j, p]
-    for i in range(3):
-        for j in range(3):
-            out[index[i, j]] = joint[i, j]
-    out[_P0] += free
 
 
 def _spread_rows(offset: FloatArray, tilt: FloatArray, depth: FloatArray,

@@ -64,7 +64,7 @@ count from its weights, :data:`REDRAW` times wider than a spread-out, weighed af
 The state per plane is the particles' weighted vote of their states at their true features,
 each particle with its own gap (the clearance's no-contact region) and its features read as
 known to within :data:`READOUT_SPREAD`
-(:func:`~fbcc_ros.core.contact.spread_states.spread_vote`): a cloud that has
+(:func:`~fbcc_ros.core.contact.spread_states.spread_states`): a cloud that has
 weighed hundreds of samples of a peg resting still is surer of its features than the model
 resolves them, and near a state's band it would state 1.0 for either side.
 """
@@ -82,7 +82,7 @@ from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.features import hole_frames, true_rows_at
 from fbcc_ros.core.contact.model import ContactBatch, PegHole, as_rows
 from fbcc_ros.core.contact.segmentation import STATES
-from fbcc_ros.core.contact.spread_states import spread_vote
+from fbcc_ros.core.contact.spread_states import spread_states
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.control.state_feed import StateFeed, window_gap
 from fbcc_ros.core.control.state_likelihood import (
@@ -330,8 +330,8 @@ class DeviationFilter:
         tilt [rad]); ``weights`` the normalised ones when the caller has them."""
         weights = self.weights if weights is None else weights
         hole = self.nominal.hole_radius + self._theta[:, 5]
-        return np.array([spread_vote(d, t, x[:, 2], hole, self.nominal.peg_radius, *spread,
-                                     weights)
+        return np.array([spread_states(d, t, x[:, 2], hole, self.nominal.peg_radius,
+                                       *spread).vote(weights)
                          for d, t in ((x[:, 0], x[:, 4]), (x[:, 1], x[:, 3]))])  # fmt: skip
 
     def _scatter(self, times: float) -> None:

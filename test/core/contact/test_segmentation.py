@@ -23,7 +23,7 @@ from fbcc_ros.core.contact.segmentation import (
     plane_state_index,
     response_state,
 )
-from fbcc_ros.core.contact.spread_states import spread_states, spread_vote
+from fbcc_ros.core.contact.spread_states import spread_states
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.paper import paper_pair
 
@@ -230,8 +230,7 @@ def test_state_probabilities_are_the_states_of_spread_features(hole: float, peg:
     states = spread_states(d, t, depth, hole, peg, *spread)
     p = states.probabilities()
     weights = rng.uniform(0.0, 1.0, n)
-    np.testing.assert_allclose(spread_vote(d, t, depth, hole, peg, *spread, weights), weights @ p,
-                               atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(states.vote(weights), weights @ p, atol=1e-12)
     reach = depth * np.abs(np.sin(t)) / 2 + peg * np.cos(t)  # eq. (15) at the tilt given
     shares = np.zeros((n, len(STATES)))
     for _ in range(draws):
