@@ -58,8 +58,8 @@ def test_the_controllers_contact_states_are_the_filters_along_the_recorded_sessi
     offline = report_states.estimate_states(s, nominal)
     assert online is not None and offline is not None
     # the filter may still be catching up when the run ends (how far it gets is the machine's:
-    # 327 and 483 of ~800 samples in two CI runs, all of them on an idle machine): what it
-    # answered is a prefix, of at least the first second of samples (200)
+    # 800 of 802 samples on an idle machine; with the filter three times as costly, 327 and 483
+    # in two CI runs): what it answered is a prefix, of at least the first second (200)
     n = len(online["t"])
     assert n == len(rows) and n >= 200 and len(offline["t"]) > 700, (n, len(offline["t"]))
     np.testing.assert_array_equal(np.sort(rows[:, 0]) - s.t0, online["t"])
