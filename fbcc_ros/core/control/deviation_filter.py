@@ -292,13 +292,13 @@ class DeviationFilter:
 
     def _window_gap(self, window: FloatArray, angles: int, fz: FloatArray,
                     weights: FloatArray) -> FloatArray:  # fmt: skip
-        """What to add to each particle's prediction at the window's mean features (P, 5) with
-        its Fz ``fz`` (P,) and its normalised weight, for the mean response of the window (n, 5)
-        it is compared with: the
-        gap of the cloud's weighted mean particle (:func:`window_gap`), in proportion to each
-        particle's Fz over that particle's (k scales a response, and cancels in the
-        indicators). Only where that particle's part is an interference fit and it touches
-        at every row and at the mean (``state_feed``'s module doc); else nothing."""
+        """What to add to each particle's prediction at the window's mean features (P, 5), with
+        its Fz ``fz`` (P,) and the particles' normalised ``weights``, for the mean response of
+        the window (n, 5) it is compared with: the gap of the cloud's weighted mean particle
+        (:func:`window_gap`), in proportion to each particle's Fz over that particle's (k
+        scales a response, and cancels in the indicators). Only where that particle's part is
+        an interference fit and it touches at every row and at the mean (``state_feed``'s
+        module doc); else nothing."""
         mean = weights @ self._theta
         pair = self._table[:, :1].copy()
         pair[[0, 2, 3], 0] = self.nominal.hole_radius + mean[5], mean[4], math.exp(mean[6])
