@@ -33,24 +33,21 @@ few noise deviations and μ times less in Fz, and only the lateral force, over m
 tells it from a peg resting free. k is what decides whether a touch shows: a stiff part pressed
 by 0.01 µm reads newtons, a soft one nothing. For the first ``anneal`` updates the
 log-likelihood is scaled up from 0: on the hole's top face a tilt and an offset read
-alike, and an early full weighting can settle the cloud on the wrong one (without it, 1 of 4
-interference insertions ended 2 µm and 2.5 mrad off; over 50 updates, 1 of 4 ended 2.7 µm and 2.4
-mrad off; over 200, none of 12 did, each within 0.03 µm and 0.01 mrad). When the effective sample
-size falls under half, the particles are resampled with Liu and West's shrunk kernel (``a`` =
-0.98), which keeps the cloud's mean and spread; once the cloud has converged, with fewer of them.
-A moved particle stays within the prior's support (without it, repeated spreading, below,
-walked one cloud's gap to 34 µm where the tolerances allow 6).
+alike, and an early full weighting can settle the cloud on the wrong one (without it, or over
+50 updates, 1 of 4 interference insertions ended microns off; over 200, none of 12). When the
+effective sample size falls under half, the particles are resampled (systematically) with Liu
+and West's shrunk kernel (``a`` = 0.98), which keeps the cloud's mean and spread; once the
+cloud has converged, with fewer of them. A moved particle stays within the prior's support
+(without it, repeated spreading, below, walked one cloud's gap to 34 µm where the tolerances
+allow 6).
 
 A cloud can collapse where the responses no longer say which: a one-sided contact fixes the
 offset less the gap, not each, and a peg that then rests in the clearance is pressing nowhere.
 When every particle contradicts the measurement, contact where there is none or none where
 there is (after the annealing), the weights cannot say where the cloud should be: it is
 spread out by :data:`SPREAD_OUT` and weighed afresh, the contradiction's own sample skipped (as
-a robot's localisation adds particles when all of them explain its scans badly). On the state
-study's clearance insertions (8 per stiffness and placement, with the contact test then at one
-noise deviation) this moved the share named right
-from 0.58–0.86 to 0.59–0.88 and what it states above 0.99 from 58–91 % right to 65–92 %;
-interference never triggered it.
+a robot's localisation adds particles when all of them explain its scans badly;
+``docs/boundary-mapping.md`` has what it gained).
 
 A cloud can also settle where the hole is not without any particle contradicting a sample: it
 explains each one worse than the truth would, for as long as the insertion lasts (one ended 20
@@ -76,7 +73,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.features import hole_frames, true_rows_at
@@ -349,7 +346,7 @@ class DeviationFilter:
     def _redraw(self, weights: FloatArray) -> None:
         """A lost cloud drawn again: the full particle count from its weights, scattered by
         REDRAW times SPREAD_OUT (module doc)."""
-        self._theta = self._theta[self._rng.choice(len(weights), self._particles, p=weights)]
+        self._theta = self._theta[self._systematic(weights, self._particles)]
         self._table = np.tile(self._table[:, :1], (1, self._particles))
         self._scatter(REDRAW)
         self.surprise_mean = 0.0
@@ -361,14 +358,21 @@ class DeviationFilter:
         if (spread[:2] < CONVERGED[0]).all() and (spread[2:4] < CONVERGED[1]).all():
             n = min(n, self.converged_particles)  # a tight cloud needs fewer to stay tight
             self._table = self._table[:, :n].copy()
-        index = self._rng.choice(len(weights), n, p=weights)
+        index = self._systematic(weights, n)
         mean = weights @ self._theta
         centred = self._theta - mean  # the weighted covariance: defined for any weights
         cov = (weights * centred.T) @ centred + np.diag(np.square(JITTER_FLOOR))
-        kernel = self._rng.multivariate_normal(np.zeros(len(mean)), (1 - SHRINK**2) * cov, n)
+        # N(0, (1 - a^2) cov) by its Cholesky factor (the floors keep cov positive definite)
+        root = np.linalg.cholesky((1 - SHRINK**2) * cov)
+        kernel = self._rng.standard_normal((n, len(mean))) @ root.T
         self._theta = SHRINK * self._theta[index] + (1 - SHRINK) * mean + kernel
         self._moved()
         self._logw = np.zeros(n)
+
+    def _systematic(self, weights: FloatArray, n: int) -> NDArray[np.intp]:
+        """n particles drawn by weight systematically (n even steps, one random offset)."""
+        points = (self._rng.random() + np.arange(n)) / n
+        return np.minimum(np.searchsorted(np.cumsum(weights), points), len(weights) - 1)
 
     def _moved(self) -> None:
         """After the particles moved: each stays within the prior's support (a kernel or a
