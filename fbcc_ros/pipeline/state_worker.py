@@ -2,16 +2,16 @@
 (:mod:`fbcc_ros.core.control.deviation_filter`) along the running insertion, in a process of its
 own, fed at every n-th control period.
 
-One update of the filter costs 0.7–5 ms (500–4000 particles): several 1 kHz periods. In the
+One update of the filter costs 0.3–1.4 ms (500–4000 particles): up to two 1 kHz periods. In the
 controller's process it would hold the loop, since the interpreter runs one thread at a time.
 So the filter runs in a child interpreter, scheduled from its first line only where the loop
 leaves a core idle (:data:`LOWEST`: its start-up and its work yield to the loop), and the loop
 only writes it what the feed hands over: a pickled frame of ~440 bytes on a pipe. The
 pipes are non-blocking both ways: a frame under PIPE_BUF is written whole or not at all, so a
 child that falls too far behind costs dropped samples (counted), never a blocked loop. The
-child answers every sample, in order, with P(state) per plane. Until the cloud has converged
-(the first ~0.6–0.8 s of contact, 4000 particles) it updates slower than 200 Hz and falls
-behind; once 500 particles carry the cloud it updates 7× faster than real time and catches up.
+child answers every sample, in order, with P(state) per plane. A sample comes every 5 ms; an
+update takes about 1 ms until the cloud has converged (4000 particles) and 0.3 ms after (500),
+so given a core the child keeps up, and on a busy machine it falls behind.
 
 :class:`~fbcc_ros.core.control.state_feed.StateFeed` makes what it gets, as
 :func:`~fbcc_ros.core.control.deviation_filter.along` makes it from the same insertion: at every

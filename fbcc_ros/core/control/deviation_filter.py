@@ -251,8 +251,7 @@ class DeviationFilter:
         window, _ = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
         mean = window.mean(axis=0)
         depth = max(float(mean[2]), 0.0)
-        x = self.true_features(mean)
-        touching = np.ascontiguousarray(x)  # the contact model's rows
+        touching = np.ascontiguousarray(self.true_features(mean))  # the contact model's rows
         np.maximum(touching[:, 2], 0.0, out=touching[:, 2])
         angles = self.nominal.n_angles
         if len(self._theta) > self.converged_particles:  # not converged: a coarser model
@@ -273,14 +272,12 @@ class DeviationFilter:
             # every particle says contact where there is none (or none where there is): the
             # cloud is wrong, and its weights cannot say where; it is spread out again
             self._spread_out()
-            x = self.true_features(mean)
         else:
             self._logw += scale * ll
         self._logw -= self._logw.max()
         weights = self.weights
-        if len(window) > 1:  # the state where the peg is at the last sample
-            x = self.true_features(window[-1])
-        probabilities = self.states(x, weights)
+        # the state where the peg is at the last sample, of the particles as they are now
+        probabilities = self.states(self.true_features(window[-1]), weights)
         if lost:  # explains the samples far worse than the truth would, for many of them
             self._redraw(weights)
         elif 1.0 / np.sum(weights**2) < len(weights) / 2:

@@ -2,7 +2,7 @@
 an insertion, the same offline (``deviation_filter.along``, ``fbcc-report``) and online (the
 controller's :mod:`fbcc_ros.pipeline.state_worker`).
 
-One update of the filter costs 0.7-3 ms, so it is updated at every n-th sample (200 Hz at
+One update of the filter costs 0.3-1.4 ms, so it is updated at every n-th sample (200 Hz at
 1 kHz) and handed the mean response of the n samples since its last update, with their
 features: the sensor's noise on an update falls by √n, where one sample in n would waste the
 others. The likelihood is taken at the window's mean features, the state read at the last
