@@ -10,7 +10,8 @@ calibration of the probability it states.
     .venv/bin/python scripts/studies/filter_along.py --seed 7 --trials 16 \
         --readout-spreads 1e-7,3e-7
 
-The insertions are those of ``fbcc-mapping-study --estimator`` (F/T under the hole): parts and
+The insertions are those of ``fbcc-mapping-study --estimator`` (F/T under the hole, or with
+``--wrist`` at the wrist): parts and
 deviations by ``state_study.drawn_insertions``, the filter as the controller runs it
 (``deviation_filter.along``'s feed and filter, stepped here to watch it: every 5th sample, seed
 ``trial``, told the case's k as the part's nominal one, or with ``--unknown-k`` nothing of it),
@@ -25,6 +26,7 @@ update (the CPU figure then includes these readouts).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 
 import numpy as np
@@ -45,11 +47,14 @@ FAINT = 3.0
 
 
 def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
-         per_insertion: bool = False, spreads: tuple[float, ...] = ()) -> str:  # fmt: skip
+         per_insertion: bool = False, spreads: tuple[float, ...] = (),
+         wrist: bool = False) -> str:  # fmt: skip
     """The share named right, the CPU, the free and the faint shares; ``per_insertion``, first
     a line per insertion. The filter is told the part's k (to within the uncertainty's
     factor), or, ``unknown_k``, nothing of it."""
     sc = scenario_io.load(scenario_io.find(f"config/scenarios/robust_{fit}.yaml"))
+    if wrist:
+        sc = dataclasses.replace(sc, geometry=sc.geometry.replace(acting_point="peg_top"))
     unc = Uncertainty()
     parts, dev = drawn_insertions(sc, unc, k, trials, seed)
     _, traj = simulate(sc, "fbcc", initial=dev, geometries=parts, seed=seed)
@@ -112,6 +117,8 @@ def main() -> None:
     parser.add_argument("--readout-spreads", default="",
                         help="offset spreads [m], comma-separated: each one's readout of the "
                              "same clouds, its share right and calibration")
+    parser.add_argument("--wrist", action="store_true",
+                        help="the F/T sensor at the wrist (default: under the hole)")
     parser.add_argument("--per-insertion", action="store_true",
                         help="a line per insertion: right, lowest surprise mean, redraws")
     args = parser.parse_args()
@@ -129,7 +136,7 @@ def main() -> None:
         if fit not in ("clearance", "interference"):
             parser.error(f"--cases {item!r}: expected clearance:k or interference:k")
         print(case(fit, float(k), args.trials, args.seed, args.unknown_k, args.per_insertion,
-                   spreads), flush=True)
+                   spreads, args.wrist), flush=True)
 
 
 if __name__ == "__main__":

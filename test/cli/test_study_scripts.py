@@ -51,3 +51,24 @@ def test_filter_along_reads_the_same_clouds_at_other_spreads() -> None:
     bad = subprocess.run([sys.executable, "scripts/studies/filter_along.py", "--readout-spreads",
                           "0,1e-7"], cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert bad.returncode == 2 and "expected offsets [m] > 0" in bad.stderr, bad.stderr
+
+
+def test_filter_along_puts_the_sensor_at_the_wrist() -> None:
+    under, wrist = (_run("scripts/studies/filter_along.py", "--trials", "1", "--cases",
+                         "clearance:1e10", *extra).strip().splitlines()[0]
+                    for extra in ((), ("--wrist",)))  # fmt: skip
+    assert under.startswith("clearance 10 GPa") and wrist.startswith("clearance 10 GPa")
+    assert under != wrist  # another sensor, other responses, another share or CPU
+
+
+def test_lost_clouds_replays_an_insertion_beside_the_truth() -> None:
+    out = _run("scripts/studies/lost_clouds.py", "--seed", "9", "--trials", "1",
+               "--insertions", "0").strip().splitlines()  # fmt: skip
+    assert len(out) == 2 and out[0].startswith("clearance 10 GPa, seed 9, insertion 0: right ")
+    assert "updates after the annealing" in out[0] and "nats better" in out[0], out
+    line = out[1].split(":")[1].split()
+    assert len(line) == 11 and line[0] == "+0", out
+    bad = subprocess.run([sys.executable, "scripts/studies/lost_clouds.py", "--trials", "2",
+                          "--insertions", "2"], cwd=ROOT, capture_output=True, text=True,
+                         timeout=300)  # fmt: skip
+    assert bad.returncode == 2 and "each in 0..trials-1" in bad.stderr, bad.stderr

@@ -24,46 +24,38 @@ at their mean, plus the window's gap between the mean response and the response 
 taken for the cloud's weighted mean particle where it is an interference fit. Each
 update, every particle's true features give its predicted response (the contact model of eq.
 5-13 with its μ, gap and k; at :data:`WIDE_ANGLES` angles until the cloud has converged),
-weighed by the measurement model of
-:mod:`~fbcc_ros.core.control.state_likelihood`: in contact, the indicators of both planes (u =
-F/Fz and σ, in which k cancels) with a Cauchy kernel of the sensor's noise over Fz plus a model
-floor, and Fz itself within a band; out of contact in Fz, whether a particle's Fz would show
-and, in the hole, the lateral force: a peg resting lightly against the wall reads Fx, Fy of a
-few noise deviations and μ times less in Fz, and only the lateral force, over many samples,
-tells it from a peg resting free. k is what decides whether a touch shows: a stiff part pressed
-by 0.01 µm reads newtons, a soft one nothing. For the first ``anneal`` updates the
-log-likelihood is scaled up from 0: on the hole's top face a tilt and an offset read
-alike, and an early full weighting can settle the cloud on the wrong one (without it, or over
-50 updates, 1 of 4 interference insertions ended microns off; over 200, none of 12). When the
+weighed by the measurement model of :mod:`~fbcc_ros.core.control.state_likelihood` (the
+indicators u = F/Fz and σ in contact, whether a touch would show and the lateral force out of
+it). For the first ``anneal`` updates the log-likelihood is scaled up from 0: on the hole's top
+face a tilt and an offset read alike, and an early full weighting can settle the cloud on the
+wrong one (without it, or over 50 updates, 1 of 4 interference insertions ended microns off;
+over 200, none of 12). When the
 effective sample size falls under half, the particles are resampled (systematically) with Liu
 and West's shrunk kernel (``a`` = 0.98), which keeps the cloud's mean and spread; once the
-cloud has converged, with fewer of them. A moved particle stays within the prior's support
-(without it, repeated spreading, below, walked one cloud's gap to 34 µm where the tolerances
-allow 6).
+cloud has converged, with fewer of them. A moved particle stays within the prior's support.
 
 A cloud can collapse where the responses no longer say which: a one-sided contact fixes the
 offset less the gap, not each, and a peg that then rests in the clearance is pressing nowhere.
-When every particle contradicts the measurement, contact where there is none or none where
-there is (after the annealing), the weights cannot say where the cloud should be: it is
-spread out by :data:`SPREAD_OUT` and weighed afresh, the contradiction's own sample skipped (as
-a robot's localisation adds particles when all of them explain its scans badly;
-``docs/boundary-mapping.md`` has what it gained).
+When every particle contradicts the measurement (contact where there is none, or none where
+there is; after the annealing), the weights cannot say where the cloud should be: it is spread
+out by :data:`SPREAD_OUT` and weighed afresh, the contradiction's own sample skipped.
 
 A cloud can also settle where the hole is not without any particle contradicting a sample: it
 explains each one worse than the truth would, for as long as the insertion lasts (one ended 20
 and 51 µm off, explaining 800 samples 51 000 nats worse than the truth). Its *surprise*
 (:meth:`DeviationFilter.surprise`: the log of its weighted mean likelihood of a sample, plus
 what the sensor's noise alone costs a particle at the truth under the same kernels) averages
-zero when it is right and falls by nats a sample when it is lost. Averaged over
-:data:`SURPRISE_MEMORY` updates below :data:`LOST`, the cloud is drawn again: the full particle
-count from its weights, :data:`REDRAW` times wider than a spread-out, weighed afresh.
+zero when it is right and falls by nats a sample when it is lost. It is tracked from the first
+update in the hole, the annealing's included (a cloud can settle wrong while it anneals, and
+by its end it has collapsed there). Averaged over :data:`SURPRISE_MEMORY` updates below
+:data:`LOST`, the cloud is drawn again: the full particle count from its weights, each moved by
+:data:`REDRAW_SPREAD` and its gap drawn afresh from the prior, weighed afresh.
 
 The state per plane is the particles' weighted vote of their states at their true features,
-each particle with its own gap (the clearance's no-contact region) and its features read as
-known to within :data:`READOUT_SPREAD`
-(:func:`~fbcc_ros.core.contact.spread_states.spread_states`): a cloud that has
-weighed hundreds of samples of a peg resting still is surer of its features than the model
-resolves them, and near a state's band it would state 1.0 for either side.
+each particle with its own gap and its features read as known to within
+:data:`READOUT_SPREAD` (:func:`~fbcc_ros.core.contact.spread_states.spread_states`): a cloud
+that has weighed hundreds of samples of a peg resting still is surer of its features than the
+model resolves them, and near a state's band it would state 1.0 for either side.
 """
 
 from __future__ import annotations
@@ -84,6 +76,7 @@ from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.control.state_feed import StateFeed, window_gap
 from fbcc_ros.core.control.state_likelihood import (
     CONTACT_MISMATCH,
+    ENTRY_DEPTH,
     log_likelihood,
     noise_misfit,
 )
@@ -99,32 +92,28 @@ SHRINK = 0.98
 CONVERGED = (2e-6, 2e-4)
 #: Until the cloud has converged (more than ``converged_particles`` carry it) the contact model
 #: runs at this many angles instead of the nominal's (48 by default): the cloud is then
-#: microns to tens of microns wide and the likelihood annealed. Along the state study's
-#: insertions (under the hole, seeds 0, 2, 3, 5 at 16 a case) it cost 18-27 % less CPU, and
-#: the share named right moved by +0.4 / -0.3 / 0 points on the clearance (0.184 / 1 / 10 GPa)
-#: and +0.1 / 0 on the interference (0.5 / 1 GPa), single cases by up to ±3 (the filter's own
-#: randomness).
+#: microns wide and the likelihood annealed. It costs 18-27 % less CPU and moves the share
+#: named right within the filter's own randomness (docs/boundary-mapping.md).
 WIDE_ANGLES = 24
 #: How far a cloud that every particle of it contradicts is spread out (dx, dy, θx, θy, μ, g,
-#: ln k): a standard deviation of the size at which a cloud counts as converged
-#: (:data:`CONVERGED`), a tenth of the friction's nominal spread, 2 µm of gap, and k ×e^±0.3.
+#: ln k): the size at which a cloud counts as converged, 0.03 in μ, 2 µm of gap, k ×e^±0.3.
 SPREAD_OUT = (CONVERGED[0], CONVERGED[0], CONVERGED[1], CONVERGED[1], 0.03, 2e-6, 0.3)
-#: Floors of the resampling kernel's covariance (dx, dy, θx, θy, μ, g, ln k), so a collapsed
-#: cloud still moves: 0.1 µm, 0.01 mrad, 0.001 in μ, 0.03 µm, 1 % in k.
+#: Floors of the resampling kernel's covariance (dx, dy, θx, θy, μ, g, ln k): a collapsed cloud
+#: still moves.
 JITTER_FLOOR = (1e-7, 1e-7, 1e-5, 1e-5, 1e-3, 3e-8, 0.01)
 #: A cloud is lost when its surprise (how much worse it explains the samples than a particle at
 #: the truth would, on average: :meth:`DeviationFilter.surprise`), averaged over
-#: :data:`SURPRISE_MEMORY` updates, is below this [nats a sample]; it is then drawn again,
-#: :data:`REDRAW` times wider than a spread-out and with the full particle count.
+#: :data:`SURPRISE_MEMORY` updates, is below this [nats a sample]; it is then drawn again with
+#: the full particle count (module doc).
 LOST = -2.5
 SURPRISE_MEMORY = 40
-REDRAW = 5.0
+#: How far a redraw moves each particle (dx, dy, θx, θy, μ, ·, ln k): 10 µm, 5 mrad (lost clouds
+#: were 10-15 mrad off in a tilt), 0.15 in μ, k ×e^±1.5. The gap is drawn from its prior: a
+#: spread across its narrow range, clipped to it, would pile particles on its ends.
+REDRAW_SPREAD = (1e-5, 1e-5, 5e-3, 5e-3, 0.15, 0.0, 1.5)
 #: The spread (offset [m], tilt [rad]) within which a particle's true features are known when
-#: its state is read (module doc). A cloud weighs every sample as independent news, but a peg
-#: resting still repeats one, and the cloud ends surer of the features than the model resolves
-#: them: on the state study's clearance insertions (64 a case, seeds 0, 2, 3, 5), states stated
-#: 0.9-0.99 were right 67-92 % of the time read at the point, 89-98 % with this spread. Chosen
-#: on seeds 0 and 2, checked on 3 and 5 (docs/boundary-mapping.md); the ratio is the bands'.
+#: its state is read (module doc): on the clearance states stated 0.9-0.99, right 67-92 % of
+#: the time read at the point, 89-98 % with it (docs/boundary-mapping.md); the bands' ratio.
 READOUT_SPREAD = (3e-7, 3e-5)
 #: The ``stiffness`` range [Pa] for a part whose k is not known at all: what the package is built
 #: for, soft plastic to steel (docs/reproduction.md).
@@ -249,25 +238,16 @@ class DeviationFilter:
         P(state) per plane, shape (2, 9), read at the last row's features."""
         w, _ = as_rows(response, "response", "(Fx, Fy, Fz, Mx, My) in N, N·m")
         window, _ = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
-        mean = window.mean(axis=0)
-        depth = max(float(mean[2]), 0.0)
-        touching = np.ascontiguousarray(self.true_features(mean))  # the contact model's rows
-        np.maximum(touching[:, 2], 0.0, out=touching[:, 2])
-        angles = self.nominal.n_angles
-        if len(self._theta) > self.converged_particles:  # not converged: a coarser model
-            angles = min(angles, WIDE_ANGLES)
-        predicted = ContactBatch(self._table, self._peg_top, angles).response(touching)
+        depth = max(float(window.mean(axis=0)[2]), 0.0)
         prior = self.weights
-        if len(window) > 1:
-            predicted += self._window_gap(window, angles, predicted[:, 2], prior)
+        ll = self.log_likelihoods(w[0], window, prior)
         self.updates += 1
         scale = min(1.0, self.updates / self.anneal) if self.anneal else 1.0
-        ll = log_likelihood(w[0], depth, predicted, touching[:, 2], self.nominal, self._noise)
         annealed = self.updates > self.anneal
-        if annealed:
+        if depth > ENTRY_DEPTH:  # on the top face the model does not describe the contact
             s = self.surprise(w[0], depth, ll, prior)
             self.surprise_mean += (s - self.surprise_mean) / SURPRISE_MEMORY
-        lost = annealed and self.surprise_mean < LOST
+        lost = self.surprise_mean < LOST
         if ll.max() <= CONTACT_MISMATCH and annealed:
             # every particle says contact where there is none (or none where there is): the
             # cloud is wrong, and its weights cannot say where; it is spread out again
@@ -283,6 +263,25 @@ class DeviationFilter:
         elif 1.0 / np.sum(weights**2) < len(weights) / 2:
             self._resample(weights)
         return probabilities
+
+    def log_likelihoods(self, response: ArrayLike, features: ArrayLike,
+                        weights: FloatArray | None = None) -> FloatArray:  # fmt: skip
+        """Each particle's log-likelihood (P,) of one sample, :meth:`update`'s arguments, not
+        weighed in; ``weights`` the normalised ones when the caller has them."""
+        w, _ = as_rows(response, "response", "(Fx, Fy, Fz, Mx, My) in N, N·m")
+        window, _ = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
+        mean = window.mean(axis=0)
+        touching = np.ascontiguousarray(self.true_features(mean))  # the contact model's rows
+        np.maximum(touching[:, 2], 0.0, out=touching[:, 2])
+        angles = self.nominal.n_angles
+        if len(self._theta) > self.converged_particles:  # not converged: a coarser model
+            angles = min(angles, WIDE_ANGLES)
+        predicted = ContactBatch(self._table, self._peg_top, angles).response(touching)
+        if len(window) > 1:
+            weights = self.weights if weights is None else weights
+            predicted += self._window_gap(window, angles, predicted[:, 2], weights)
+        return log_likelihood(w[0], max(float(mean[2]), 0.0), predicted, touching[:, 2],
+                              self.nominal, self._noise)  # fmt: skip
 
     def _window_gap(self, window: FloatArray, angles: int, fz: FloatArray,
                     weights: FloatArray) -> FloatArray:  # fmt: skip
@@ -328,24 +327,26 @@ class DeviationFilter:
                                        *spread).vote(weights)
                          for d, t in ((x[:, 0], x[:, 4]), (x[:, 1], x[:, 3]))])  # fmt: skip
 
-    def _scatter(self, times: float) -> None:
-        """Every particle moved by a draw of ``times`` SPREAD_OUT, within the prior, the weights
-        made equal."""
-        self._theta += self._rng.normal(0.0, times * np.asarray(SPREAD_OUT), self._theta.shape)
+    def _scatter(self, spread: Sequence[float]) -> None:
+        """Every particle moved by a normal draw of standard deviations ``spread`` (7,), within
+        the prior, the weights made equal."""
+        self._theta += self._rng.normal(0.0, spread, self._theta.shape)
         self._moved()
         self._logw = np.zeros(len(self._theta))
 
     def _spread_out(self) -> None:
         """A contradicted cloud spread out by SPREAD_OUT (module doc)."""
-        self._scatter(1.0)
+        self._scatter(SPREAD_OUT)
         self.spread_outs += 1
 
     def _redraw(self, weights: FloatArray) -> None:
-        """A lost cloud drawn again: the full particle count from its weights, scattered by
-        REDRAW times SPREAD_OUT (module doc)."""
-        self._theta = self._theta[self._systematic(weights, self._particles)]
-        self._table = np.tile(self._table[:, :1], (1, self._particles))
-        self._scatter(REDRAW)
+        """A lost cloud drawn again: the full particle count from its weights, moved by
+        REDRAW_SPREAD, the gap from its prior (module doc)."""
+        n = self._particles
+        self._theta = self._theta[self._systematic(weights, n)]
+        self._theta[:, 5] = self._rng.uniform(self._low[5], self._high[5], n)
+        self._table = np.tile(self._table[:, :1], (1, n))
+        self._scatter(REDRAW_SPREAD)
         self.surprise_mean = 0.0
         self.redraws += 1
 

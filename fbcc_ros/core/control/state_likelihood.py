@@ -11,6 +11,8 @@ out of contact in Fz is weighed by whether a particle's Fz would show and, in th
 lateral force (Fx, Fy), the prediction's size free within the band: a peg resting lightly
 against the wall reads a few noise deviations there and μ times less in Fz. A particle that
 predicts contact where there is none, or none where there is, gets :data:`CONTACT_MISMATCH`.
+The part's k is what decides whether a touch shows: a stiff part pressed by 0.01 µm reads
+newtons, a soft one nothing.
 """
 
 from __future__ import annotations

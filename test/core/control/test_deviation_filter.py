@@ -18,6 +18,7 @@ from fbcc_ros.core.control.contact_state import most_probable
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.control.deviation_filter import (
     READOUT_SPREAD,
+    REDRAW_SPREAD,
     SPREAD_OUT,
     SURPRISE_MEMORY,
     UNKNOWN_STIFFNESS,
@@ -370,6 +371,60 @@ def test_a_lost_cloud_is_drawn_again() -> None:
         surprise.append(f.surprise(reading, depth, ll))
         f.update(reading, features)
     assert f.redraws == 1 and np.mean(surprise[50:]) > -0.5, (f.redraws, np.mean(surprise[50:]))
+
+
+@pytest.mark.parametrize("depth", [4e-3, 0.5 * ENTRY_DEPTH])
+def test_a_cloud_lost_while_it_anneals_is_drawn_again_in_the_hole(depth: float) -> None:
+    """The surprise is tracked from the first update in the hole, the annealing's included: a
+    cloud settled 4 µm and 0.4 mrad off, fed readings of the true contact 4 mm in, is drawn again
+    within SURPRISE_MEMORY updates of a 200-update annealing. On the top face, which the model
+    does not describe, it is not tracked."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_interference.yaml"))
+    nominal = sc.geometry
+    unc = Uncertainty()
+    true_dev = np.array([3e-6, -2e-6, 1e-4, -2e-4])
+    features = np.array([0.0, 0.0, depth, 0.0, 0.0])
+    f = DeviationFilter(nominal, unc, particles=1000, anneal=200, seed=4)
+    theta = _cloud(nominal, 1000)
+    theta[:, :4] = true_dev
+    f._theta = theta.copy()
+    truth = nominal.response(f.true_features(features)[0])
+    theta[:, :4] = true_dev + np.array([4e-6, -4e-6, 4e-4, 4e-4])
+    f._theta = theta
+    rng = np.random.default_rng(8)
+    for _ in range(SURPRISE_MEMORY):
+        f.update(truth + rng.normal(0.0, 1.0, 5) * unc.noise, features)
+        if f.redraws:
+            break
+    assert f.updates < f.anneal
+    if depth > ENTRY_DEPTH:
+        assert f.redraws == 1, f.surprise_mean
+    else:
+        assert f.redraws == 0 and f.surprise_mean == 0.0
+
+
+def test_a_redraw_reaches_across_the_tilts_and_the_gaps_prior() -> None:
+    """A redraw of a cloud collapsed on one point spreads it by REDRAW_SPREAD (a tilt 10 mrad
+    off is within two of its deviations) and draws the gap uniform over its prior: not piled on
+    the prior's ends, as a spread clipped to it would be."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
+    nominal = sc.geometry
+    unc = Uncertainty()
+    f = DeviationFilter(nominal, unc, particles=4000, seed=5)
+    f._theta = _cloud(nominal, 500)
+    f._theta[:, 5] = 2 * unc.radius  # at the gap's prior's end
+    f._table = f._table[:, :500].copy()
+    f._logw = np.zeros(500)
+    f._redraw(f.weights)
+    theta = f._theta
+    assert len(theta) == 4000 and f.redraws == 1
+    tilt = np.std(theta[:, 2:4], axis=0)
+    assert np.all(np.abs(tilt / REDRAW_SPREAD[2] - 1) < 0.1), tilt
+    assert 0.03 < np.mean(np.abs(theta[:, 3]) > 10e-3) < 0.07  # 4.6 % beyond two deviations
+    gap = theta[:, 5]
+    assert np.std(gap) == pytest.approx(4 * unc.radius / math.sqrt(12), rel=0.05)
+    assert np.mean(np.isin(gap, [-2 * unc.radius, 2 * unc.radius])) < 0.01
+    assert np.all(f.weights == f.weights[0])
 
 
 def test_k_is_the_stated_one_or_drawn_over_a_stated_range() -> None:
