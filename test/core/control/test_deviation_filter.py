@@ -334,40 +334,50 @@ def test_a_cloud_at_the_truth_is_not_surprised_by_noise(fz: float) -> None:
     assert f.redraws == 0
 
 
+def _fed_while_lost(depth: float, anneal: int, particles: int, kept: int
+                    ) -> tuple[DeviationFilter, np.ndarray, np.ndarray, np.random.Generator]:
+    """A filter of ``particles`` whose ``kept`` ones settled 4 µm and 0.4 mrad off the hole
+    (each there), fed noisy readings of the true contact ``depth`` in until it is drawn again or
+    for SURPRISE_MEMORY updates. Returns the filter, the true response, the features and the
+    readings' generator."""
+    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_interference.yaml"))
+    nominal = sc.geometry
+    true_dev = np.array([3e-6, -2e-6, 1e-4, -2e-4])
+    features = np.array([0.0, 0.0, depth, 0.0, 0.0])
+    f = DeviationFilter(nominal, Uncertainty(), particles=particles, anneal=anneal, seed=3)
+    theta = _cloud(nominal, particles)
+    theta[:, :4] = true_dev
+    f._theta = theta.copy()
+    truth = nominal.response(f.true_features(features)[0])
+    theta[:, :4] = true_dev + np.array([4e-6, -4e-6, 4e-4, 4e-4])  # lost
+    f._theta = theta[:kept].copy()
+    f._table = f._table[:, :kept].copy()
+    f._logw = np.zeros(kept)
+    rng = np.random.default_rng(8)
+    for _ in range(SURPRISE_MEMORY):
+        f.update(truth + rng.normal(0.0, 1.0, 5) * f._noise, features)
+        if f.redraws:
+            break
+    return f, truth, features, rng
+
+
 def test_a_lost_cloud_is_drawn_again() -> None:
     """A cloud settled 4 µm and 0.4 mrad off the hole (each particle there), fed readings of the
     true contact: every reading costs it more than the noise would cost the truth, and within
     SURPRISE_MEMORY updates it is drawn again, with the full particle count, wider than a
     spread-out, and then explains the readings as the truth does."""
-    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_interference.yaml"))
-    nominal = sc.geometry
-    unc = Uncertainty()
     depth = 4e-3
-    true_dev = np.array([3e-6, -2e-6, 1e-4, -2e-4])
-    features = np.array([0.0, 0.0, depth, 0.0, 0.0])
-    f = DeviationFilter(nominal, unc, particles=2000, anneal=0, seed=3)
-    theta = _cloud(nominal, 2000)
-    theta[:, :4] = true_dev
-    f._theta = theta.copy()
-    truth = nominal.response(f.true_features(features)[0])
-    theta[:, :4] = true_dev + np.array([4e-6, -4e-6, 4e-4, 4e-4])  # lost
-    f._theta = theta[:500].copy()
-    f._table = f._table[:, :500].copy()
-    f._logw = np.zeros(500)
-    rng = np.random.default_rng(8)
-    for _ in range(SURPRISE_MEMORY):
-        f.update(truth + rng.normal(0.0, 1.0, 5) * unc.noise, features)
-        if f.redraws:
-            break
+    f, truth, features, rng = _fed_while_lost(depth, anneal=0, particles=2000, kept=500)
+    nominal = f.nominal
     assert f.redraws == 1 and len(f._theta) == 2000, (f.redraws, len(f._theta))
     surprise = []
     for _ in range(100):
-        reading = truth + rng.normal(0.0, 1.0, 5) * unc.noise
+        reading = truth + rng.normal(0.0, 1.0, 5) * f._noise
         x = f.true_features(features)
         f._table[[0, 2, 3]] = (nominal.hole_radius + f._theta[:, 5], f._theta[:, 4],
                                np.exp(f._theta[:, 6]))  # fmt: skip
         predicted = ContactBatch(f._table, f._peg_top, nominal.n_angles).response(x)
-        ll = log_likelihood(reading, depth, predicted, x[:, 2], nominal, unc.noise)
+        ll = log_likelihood(reading, depth, predicted, x[:, 2], nominal, f._noise)
         surprise.append(f.surprise(reading, depth, ll))
         f.update(reading, features)
     assert f.redraws == 1 and np.mean(surprise[50:]) > -0.5, (f.redraws, np.mean(surprise[50:]))
@@ -379,23 +389,7 @@ def test_a_cloud_lost_while_it_anneals_is_drawn_again_in_the_hole(depth: float) 
     cloud settled 4 µm and 0.4 mrad off, fed readings of the true contact 4 mm in, is drawn again
     within SURPRISE_MEMORY updates of a 200-update annealing. On the top face, which the model
     does not describe, it is not tracked."""
-    sc = scenario_io.load(scenario_io.find("config/scenarios/robust_interference.yaml"))
-    nominal = sc.geometry
-    unc = Uncertainty()
-    true_dev = np.array([3e-6, -2e-6, 1e-4, -2e-4])
-    features = np.array([0.0, 0.0, depth, 0.0, 0.0])
-    f = DeviationFilter(nominal, unc, particles=1000, anneal=200, seed=4)
-    theta = _cloud(nominal, 1000)
-    theta[:, :4] = true_dev
-    f._theta = theta.copy()
-    truth = nominal.response(f.true_features(features)[0])
-    theta[:, :4] = true_dev + np.array([4e-6, -4e-6, 4e-4, 4e-4])
-    f._theta = theta
-    rng = np.random.default_rng(8)
-    for _ in range(SURPRISE_MEMORY):
-        f.update(truth + rng.normal(0.0, 1.0, 5) * unc.noise, features)
-        if f.redraws:
-            break
+    f, *_ = _fed_while_lost(depth, anneal=200, particles=1000, kept=1000)
     assert f.updates < f.anneal
     if depth > ENTRY_DEPTH:
         assert f.redraws == 1, f.surprise_mean
