@@ -9,6 +9,8 @@ calibration of the probability it states.
         --per-insertion
     .venv/bin/python scripts/studies/filter_along.py --seed 7 --trials 16 \
         --readout-spreads 1e-7,3e-7
+    .venv/bin/python scripts/studies/filter_along.py --seed 2,3 --trials 16 --cases \
+        interference:1.84e8,interference:5e8,interference:1e9 --powers 1,2,2.5,3,4
 
 The insertions are those of ``fbcc-mapping-study --estimator`` (F/T under the hole, or with
 ``--wrist`` at the wrist): parts and
@@ -20,7 +22,10 @@ its share named right, the lowest running mean of the filter's surprise (``LOST`
 redrawn) and how often it was redrawn. ``--readout-spreads`` adds, per readout spread of the
 offset (the tilt's 100 rad/m times it, the ratio of ``READOUT_SPREAD``), the share named right,
 the expected calibration error and the calibration of the same clouds read with it after each
-update (the CPU figure then includes these readouts).
+update (the CPU figure then includes these readouts). ``--powers`` runs the filter with its
+votes uncalibrated (``state_calibration.SHARPNESS`` set to 1) and, pooled over every seed and
+case run, scores them raised to each power: the share right, the calibration error, the
+log-loss of the true state and the calibration (how ``SHARPNESS`` was chosen).
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ from fbcc_ros.core.contact.segmentation import STATES, feature_state
 from fbcc_ros.core.control.contact_state import most_probable
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.control.deviation_filter import UNKNOWN_STIFFNESS, DeviationFilter
+from fbcc_ros.core.control.state_calibration import SHARPNESS
 from fbcc_ros.core.control.state_feed import StateFeed
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import simulate
@@ -47,11 +53,12 @@ FAINT = 3.0
 
 
 def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
-         per_insertion: bool = False, spreads: tuple[float, ...] = (),
-         wrist: bool = False) -> str:  # fmt: skip
+         per_insertion: bool = False, spreads: tuple[float, ...] = (), wrist: bool = False,
+         votes: list[tuple[np.ndarray, np.ndarray]] | None = None) -> str:  # fmt: skip
     """The share named right, the CPU, the free and the faint shares; ``per_insertion``, first
     a line per insertion. The filter is told the part's k (to within the uncertainty's
-    factor), or, ``unknown_k``, nothing of it."""
+    factor), or, ``unknown_k``, nothing of it. ``votes`` collects each insertion's P(state)
+    where scored (n, 2, 9) and the true states' indices (n, 2)."""
     sc = scenario_io.load(scenario_io.find(f"config/scenarios/robust_{fit}.yaml"))
     if wrist:
         sc = dataclasses.replace(sc, geometry=sc.geometry.replace(acting_point="peg_top"))
@@ -83,6 +90,9 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
         named, stated = most_probable(p)
         inside = x[rows, 2] > 0
         truth = feature_state(x[rows[inside]], parts[i])
+        if votes is not None:
+            votes.append((p[inside], np.array([[STATES.index(s) for s in truth[plane]]
+                                               for plane in range(2)]).T))  # fmt: skip
         tally.add(np.column_stack(truth), named[inside], stated[inside])
         for m, s in enumerate(spreads):
             n_s, p_s = most_probable(again[m])
@@ -107,9 +117,25 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
     return "\n".join([*lines, summary] if per_insertion else [summary])
 
 
+def powers_text(votes: list[tuple[np.ndarray, np.ndarray]], power: float) -> str:
+    """The uncalibrated ``votes`` (``case``'s) raised to ``power`` and normalised (as
+    ``state_calibration.calibrated`` does): share right, calibration error, log-loss of the true
+    state [nats] and the calibration, pooled."""
+    p = np.concatenate([v for v, _ in votes]).reshape(-1, len(STATES))
+    truth = np.concatenate([t for _, t in votes]).ravel()
+    sharp = np.power(p, power)
+    sharp /= sharp.sum(axis=1, keepdims=True)
+    tally = Tally()
+    tally.add(np.array(STATES)[truth], np.array(STATES)[sharp.argmax(axis=1)], sharp.max(axis=1))
+    loss = -np.mean(np.log(np.maximum(sharp[np.arange(len(truth)), truth], 1e-12)))
+    return (f"votes raised to {power:g}: right {tally.accuracy:.3f}, calibration error "
+            f"{tally.calibration_error():.3f}, log-loss {loss:.3f}; "
+            f"{calibration_text(tally.calibration())}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", default="0", help="a seed, or several comma-separated")
     parser.add_argument("--trials", type=int, default=8)
     parser.add_argument("--cases", default=CASES, help=f"fit:k[Pa],... (default {CASES})")
     parser.add_argument("--unknown-k", action="store_true",
@@ -119,24 +145,38 @@ def main() -> None:
                              "same clouds, its share right and calibration")
     parser.add_argument("--wrist", action="store_true",
                         help="the F/T sensor at the wrist (default: under the hole)")
+    parser.add_argument("--powers", default="",
+                        help="powers, comma-separated: the filter runs uncalibrated, and the "
+                             "votes of every case and seed run, raised to each, are scored "
+                             "pooled (state_calibration's choice)")
     parser.add_argument("--per-insertion", action="store_true",
                         help="a line per insertion: right, lowest surprise mean, redraws")
     args = parser.parse_args()
-    if args.trials < 1 or args.seed < 0:
-        parser.error(f"--trials {args.trials} --seed {args.seed}: expected >= 1 and >= 0")
     try:
+        seeds = [int(v) for v in args.seed.split(",")]
+        powers = [float(v) for v in args.powers.split(",") if v.strip()]
         spreads = tuple(float(v) for v in args.readout_spreads.split(",") if v.strip())
     except ValueError:
-        spreads = (-1.0,)
+        parser.error(f"--seed {args.seed!r} --powers {args.powers!r} --readout-spreads "
+                     f"{args.readout_spreads!r}: expected comma-separated numbers")
+    if args.trials < 1 or min(seeds) < 0 or not all(a > 0 for a in powers):
+        parser.error(f"--trials {args.trials} --seed {args.seed} --powers {args.powers}: "
+                     "expected >= 1, >= 0 and > 0")
     if not all(s > 0 for s in spreads):
         parser.error(f"--readout-spreads {args.readout_spreads!r}: expected offsets [m] > 0, "
                      "comma-separated")
-    for item in args.cases.split(","):
-        fit, _, k = item.partition(":")
-        if fit not in ("clearance", "interference"):
-            parser.error(f"--cases {item!r}: expected clearance:k or interference:k")
-        print(case(fit, float(k), args.trials, args.seed, args.unknown_k, args.per_insertion,
-                   spreads, args.wrist), flush=True)
+    votes: list[tuple[np.ndarray, np.ndarray]] | None = [] if powers else None
+    if powers:  # the votes as the particles cast them
+        SHARPNESS.update(dict.fromkeys(SHARPNESS, 1.0))
+    for seed in seeds:
+        for item in args.cases.split(","):
+            fit, _, k = item.partition(":")
+            if fit not in ("clearance", "interference"):
+                parser.error(f"--cases {item!r}: expected clearance:k or interference:k")
+            print(case(fit, float(k), args.trials, seed, args.unknown_k, args.per_insertion,
+                       spreads, args.wrist, votes), flush=True)
+    for power in powers:
+        print(powers_text(votes or [], power), flush=True)
 
 
 if __name__ == "__main__":

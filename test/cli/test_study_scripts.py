@@ -72,3 +72,15 @@ def test_lost_clouds_replays_an_insertion_beside_the_truth() -> None:
                           "--insertions", "2"], cwd=ROOT, capture_output=True, text=True,
                          timeout=300)  # fmt: skip
     assert bad.returncode == 2 and "each in 0..trials-1" in bad.stderr, bad.stderr
+
+
+def test_filter_along_scores_the_votes_raised_to_powers() -> None:
+    out = _run("scripts/studies/filter_along.py", "--trials", "1", "--seed", "0,1", "--cases",
+               "interference:5e8", "--powers", "1,3").strip().splitlines()  # fmt: skip
+    cases = [line for line in out if line.startswith("interference 0.5 GPa")]
+    assert [line.split(",")[1] for line in cases] == [" seed 0", " seed 1"], out
+    one, three = (line for line in out if line.startswith("votes raised to"))
+    assert one.startswith("votes raised to 1: ") and three.startswith("votes raised to 3: ")
+    # a power keeps the named state: the same share right
+    assert one.split(",")[0].split("right ")[1] == three.split(",")[0].split("right ")[1], out
+    assert "log-loss " in one and "0.99–1.00: " in three, out

@@ -52,10 +52,9 @@ by its end it has collapsed there). Averaged over :data:`SURPRISE_MEMORY` update
 :data:`REDRAW_SPREAD` and its gap drawn afresh from the prior, weighed afresh.
 
 The state per plane is the particles' weighted vote of their states at their true features,
-each particle with its own gap and its features read as known to within
-:data:`READOUT_SPREAD` (:func:`~fbcc_ros.core.contact.spread_states.spread_states`): a cloud
-that has weighed hundreds of samples of a peg resting still is surer of its features than the
-model resolves them, and near a state's band it would state 1.0 for either side.
+each with its own gap and its features known to within :data:`READOUT_SPREAD` (a cloud that has
+weighed hundreds of samples of a peg resting still is surer of its features than the model
+resolves them), calibrated (:mod:`~fbcc_ros.core.control.state_calibration`).
 """
 
 from __future__ import annotations
@@ -73,6 +72,7 @@ from fbcc_ros.core.contact.model import ContactBatch, PegHole, as_rows
 from fbcc_ros.core.contact.segmentation import STATES
 from fbcc_ros.core.contact.spread_states import spread_states
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
+from fbcc_ros.core.control.state_calibration import calibrated
 from fbcc_ros.core.control.state_feed import StateFeed, window_gap
 from fbcc_ros.core.control.state_likelihood import (
     CONTACT_MISMATCH,
@@ -320,12 +320,14 @@ class DeviationFilter:
                spread: tuple[float, float] = READOUT_SPREAD) -> FloatArray:  # fmt: skip
         """The weighted vote of the particles' states at their true features x (P, 5), each
         with its own gap, each read with the features known to within ``spread`` (offset [m],
-        tilt [rad]); ``weights`` the normalised ones when the caller has them."""
+        tilt [rad]), calibrated (:mod:`~fbcc_ros.core.control.state_calibration`); ``weights``
+        the normalised ones when the caller has them."""
         weights = self.weights if weights is None else weights
         hole = self.nominal.hole_radius + self._theta[:, 5]
-        return np.array([spread_states(d, t, x[:, 2], hole, self.nominal.peg_radius,
-                                       *spread).vote(weights)
-                         for d, t in ((x[:, 0], x[:, 4]), (x[:, 1], x[:, 3]))])  # fmt: skip
+        return calibrated(np.array([spread_states(d, t, x[:, 2], hole, self.nominal.peg_radius,
+                                                  *spread).vote(weights)
+                                    for d, t in ((x[:, 0], x[:, 4]), (x[:, 1], x[:, 3]))]),
+                          self.nominal.fit)  # fmt: skip
 
     def _scatter(self, spread: Sequence[float]) -> None:
         """Every particle moved by a normal draw of standard deviations ``spread`` (7,), within

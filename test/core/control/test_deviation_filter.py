@@ -24,6 +24,7 @@ from fbcc_ros.core.control.deviation_filter import (
     UNKNOWN_STIFFNESS,
     DeviationFilter,
 )
+from fbcc_ros.core.control.state_calibration import calibrated
 from fbcc_ros.core.control.state_feed import StateFeed, window_gap
 from fbcc_ros.core.control.state_likelihood import CONTACT_SIGMAS, ENTRY_DEPTH, log_likelihood
 from fbcc_ros.core.errors import ConfigError
@@ -266,8 +267,9 @@ def test_a_cloud_that_one_particle_carries_is_resampled_around_it() -> None:
 
 def test_a_cloud_sure_of_features_near_a_band_states_them_with_the_readout_spread() -> None:
     """Every particle at one deviation that puts the peg's offset 0.2 µm past the 1 µm band
-    (tilted, touching): the cloud states D1 with P(offset > 1 µm) under READOUT_SPREAD, about
-    0.75, and the rest D0, not 1.0; far from the band, it is sure."""
+    (tilted, touching): the cloud votes D1 with P(offset > 1 µm) under READOUT_SPREAD, about
+    0.75, and the rest D0, not 1.0 (an interference's vote then calibrated); far from the band,
+    it is sure."""
     sc = scenario_io.load(scenario_io.find("config/scenarios/robust_interference.yaml"))
     f = DeviationFilter(sc.geometry, particles=500, seed=3)
     f._theta = _cloud(sc.geometry)
@@ -275,9 +277,10 @@ def test_a_cloud_sure_of_features_near_a_band_states_them_with_the_readout_sprea
     p = f.states(x)
     spread = READOUT_SPREAD[0]
     expected = 0.5 * math.erfc((OFFSET_TOL - 1.2e-6) / (spread * math.sqrt(2)))  # P(dx > 1 µm)
-    assert p[0, STATES.index("D1")] == pytest.approx(expected, abs=1e-9)
     assert 0.7 < expected < 0.8
-    assert p[0, STATES.index("D0")] == pytest.approx(1 - expected, abs=1e-9)
+    vote = np.zeros(len(STATES))
+    vote[[STATES.index("D1"), STATES.index("D0")]] = expected, 1 - expected
+    assert p[0] == pytest.approx(calibrated(vote, "interference"), abs=1e-9)
     x[:, 0] = 5e-6
     assert f.states(x)[0, STATES.index("D1")] == pytest.approx(1.0, abs=1e-9)
 
