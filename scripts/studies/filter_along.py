@@ -25,7 +25,9 @@ the expected calibration error and the calibration of the same clouds read with 
 update (the CPU figure then includes these readouts). ``--powers`` runs the filter with its
 votes uncalibrated (``state_calibration.SHARPNESS`` set to 1) and, pooled over every seed and
 case run, scores them raised to each power: the share right, the calibration error, the
-log-loss of the true state and the calibration (how ``SHARPNESS`` was chosen).
+log-loss of the true state and the calibration (how ``SHARPNESS`` was chosen). With several
+seeds, a last line per case pools them: the share right over all its insertions, and how often a
+case of ``--trials`` insertions drawn from them falls under 90 %.
 """
 
 from __future__ import annotations
@@ -54,11 +56,13 @@ FAINT = 3.0
 
 def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
          per_insertion: bool = False, spreads: tuple[float, ...] = (), wrist: bool = False,
-         votes: list[tuple[np.ndarray, np.ndarray]] | None = None) -> str:  # fmt: skip
+         votes: list[tuple[np.ndarray, np.ndarray]] | None = None,
+         shares: list[float] | None = None) -> str:  # fmt: skip
     """The share named right, the CPU, the free and the faint shares; ``per_insertion``, first
     a line per insertion. The filter is told the part's k (to within the uncertainty's
     factor), or, ``unknown_k``, nothing of it. ``votes`` collects each insertion's P(state)
-    where scored (n, 2, 9) and the true states' indices (n, 2)."""
+    where scored (n, 2, 9) and the true states' indices (n, 2); ``shares`` each insertion's share
+    named right."""
     sc = scenario_io.load(scenario_io.find(f"config/scenarios/robust_{fit}.yaml"))
     if wrist:
         sc = dataclasses.replace(sc, geometry=sc.geometry.replace(acting_point="peg_top"))
@@ -103,6 +107,8 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
             free += int((truth[plane] == "P0").sum())
             faint += int(((truth[plane] != "P0") & (force < FAINT * unc.noise[2])).sum())
         right += hits
+        if shares is not None:
+            shares.append(hits / (2 * int(inside.sum())))
         scored += 2 * int(inside.sum())
         lines.append(f"  insertion {i}: right {hits / (2 * inside.sum()):.2f}, lowest surprise "
                      f"mean {lowest:.1f}, redrawn {filt.redraws}")
@@ -115,6 +121,21 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
         summary += (f"\n  readout spread {s:g} m: right {t.accuracy:.3f}, calibration error "
                     f"{t.calibration_error():.3f}; {calibration_text(t.calibration())}")
     return "\n".join([*lines, summary] if per_insertion else [summary])
+
+
+#: Cases drawn from the pooled insertions to tell how often a case falls under 90 %.
+BOOTSTRAP = 100_000
+
+
+def pooled_text(item: str, seeds: list[int], shares: list[float], trials: int) -> str:
+    """The share named right pooled over ``seeds`` (the insertions' mean) and, drawing cases of
+    ``trials`` insertions from them with replacement, how often a case falls under 0.90."""
+    v = np.array(shares)
+    cases = np.random.default_rng(0).choice(v, size=(BOOTSTRAP, trials)).mean(axis=1)
+    return (f"{item} pooled over seeds {','.join(map(str, seeds))} ({len(v)} insertions): right "
+            f"{v.mean():.3f}, under 0.8 right {int(np.sum(v < 0.8))}; a case of {trials} falls "
+            f"under 0.90 with probability {np.mean(cases < 0.9):.3f} (5th percentile "
+            f"{np.percentile(cases, 5):.3f})")
 
 
 def powers_text(votes: list[tuple[np.ndarray, np.ndarray]], power: float) -> str:
@@ -168,13 +189,19 @@ def main() -> None:
     votes: list[tuple[np.ndarray, np.ndarray]] | None = [] if powers else None
     if powers:  # the votes as the particles cast them
         SHARPNESS.update(dict.fromkeys(SHARPNESS, 1.0))
+    items = args.cases.split(",")
+    for item in items:
+        if item.partition(":")[0] not in ("clearance", "interference"):
+            parser.error(f"--cases {item!r}: expected clearance:k or interference:k")
+    shares: dict[str, list[float]] = {item: [] for item in items}
     for seed in seeds:
-        for item in args.cases.split(","):
+        for item in items:
             fit, _, k = item.partition(":")
-            if fit not in ("clearance", "interference"):
-                parser.error(f"--cases {item!r}: expected clearance:k or interference:k")
             print(case(fit, float(k), args.trials, seed, args.unknown_k, args.per_insertion,
-                       spreads, args.wrist, votes), flush=True)
+                       spreads, args.wrist, votes, shares[item]), flush=True)
+    if len(seeds) > 1:
+        for item in items:
+            print(pooled_text(item, seeds, shares[item], args.trials), flush=True)
     for power in powers:
         print(powers_text(votes or [], power), flush=True)
 

@@ -84,3 +84,5 @@ def test_filter_along_scores_the_votes_raised_to_powers() -> None:
     # a power keeps the named state: the same share right
     assert one.split(",")[0].split("right ")[1] == three.split(",")[0].split("right ")[1], out
     assert "log-loss " in one and "0.99–1.00: " in three, out
+    pooled = [line for line in out if " pooled over seeds 0,1 (2 insertions): right " in line]
+    assert len(pooled) == 1 and "falls under 0.90 with probability " in pooled[0], out
