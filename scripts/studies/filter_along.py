@@ -42,7 +42,7 @@ from fbcc_ros.core.contact.segmentation import STATES, feature_state
 from fbcc_ros.core.control.contact_state import most_probable
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
 from fbcc_ros.core.control.deviation_filter import UNKNOWN_STIFFNESS, DeviationFilter
-from fbcc_ros.core.control.state_calibration import SHARPNESS
+from fbcc_ros.core.control.state_calibration import SHARPNESS, sharpened
 from fbcc_ros.core.control.state_feed import StateFeed
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import simulate
@@ -139,13 +139,12 @@ def pooled_text(item: str, seeds: list[int], shares: list[float], trials: int) -
 
 
 def powers_text(votes: list[tuple[np.ndarray, np.ndarray]], power: float) -> str:
-    """The uncalibrated ``votes`` (``case``'s) raised to ``power`` and normalised (as
-    ``state_calibration.calibrated`` does): share right, calibration error, log-loss of the true
+    """The uncalibrated ``votes`` (``case``'s) raised to ``power`` and normalised
+    (``state_calibration.sharpened``): share right, calibration error, log-loss of the true
     state [nats] and the calibration, pooled."""
     p = np.concatenate([v for v, _ in votes]).reshape(-1, len(STATES))
     truth = np.concatenate([t for _, t in votes]).ravel()
-    sharp = np.power(p, power)
-    sharp /= sharp.sum(axis=1, keepdims=True)
+    sharp = sharpened(p, power)
     tally = Tally()
     tally.add(np.array(STATES)[truth], np.array(STATES)[sharp.argmax(axis=1)], sharp.max(axis=1))
     loss = -np.mean(np.log(np.maximum(sharp[np.arange(len(truth)), truth], 1e-12)))

@@ -33,7 +33,7 @@ class SpreadStates(NamedTuple):
     def probabilities(self) -> FloatArray:
         """P(state) per row, shape (N, 9) over :data:`STATES`."""
         out = np.zeros((len(self.inside), len(STATES)))
-        out[:, STATES.index("P0")] = self.inside
+        out[:, _P0] = self.inside
         for i in range(3):
             for j in range(3):
                 out[:, STATE_INDEX[i, j]] += self.tilt_sign[:, i] * self.offset_sign[:, j]

@@ -29,27 +29,24 @@ indicators u = F/Fz and σ in contact, whether a touch would show and the latera
 it). For the first ``anneal`` updates the log-likelihood is scaled up from 0: on the hole's top
 face a tilt and an offset read alike, and an early full weighting can settle the cloud on the
 wrong one (without it, or over 50 updates, 1 of 4 interference insertions ended microns off;
-over 200, none of 12). When the
-effective sample size falls under half, the particles are resampled (systematically) with Liu
-and West's shrunk kernel (``a`` = 0.98), which keeps the cloud's mean and spread; once the
-cloud has converged, with fewer of them. A moved particle stays within the prior's support.
+over 200, none of 12). When the effective sample size falls under half, the particles are
+resampled (systematically) with Liu and West's shrunk kernel (``a`` = 0.98), which keeps the
+cloud's mean and spread; once it has converged, fewer. A moved particle stays in the prior.
 
 A cloud can collapse where the responses no longer say which: a one-sided contact fixes the
 offset less the gap, not each, and a peg that then rests in the clearance is pressing nowhere.
-When every particle contradicts the measurement (contact where there is none, or none where
-there is; after the annealing), the weights cannot say where the cloud should be: it is spread
-out by :data:`SPREAD_OUT` and weighed afresh, the contradiction's own sample skipped.
+When every particle contradicts the measurement after the annealing (contact where there is
+none, or the reverse), the weights cannot say where the cloud should be: it is spread out by
+:data:`SPREAD_OUT` and weighed afresh, the contradiction's own sample skipped.
 
 A cloud can also settle where the hole is not without any particle contradicting a sample: it
-explains each one worse than the truth would, for as long as the insertion lasts (one ended 20
-and 51 µm off, explaining 800 samples 51 000 nats worse than the truth). Its *surprise*
+explains each one worse than the truth would, for as long as the insertion lasts. Its *surprise*
 (:meth:`DeviationFilter.surprise`: the log of its weighted mean likelihood of a sample, plus
 what the sensor's noise alone costs a particle at the truth under the same kernels) averages
 zero when it is right and falls by nats a sample when it is lost. It is tracked from the first
-update in the hole, the annealing's included (a cloud can settle wrong while it anneals, and
-by its end it has collapsed there). Averaged over :data:`SURPRISE_MEMORY` updates below
-:data:`LOST`, the cloud is drawn again: the full particle count from its weights, each moved by
-:data:`REDRAW_SPREAD` and its gap drawn afresh from the prior, weighed afresh.
+update in the hole, the annealing's included (a cloud can settle wrong while it anneals). Its
+mean over :data:`SURPRISE_MEMORY` updates below :data:`LOST`, the cloud is drawn again: the full
+count from its weights, moved by :data:`REDRAW_SPREAD`, the gap from the prior, weighed afresh.
 
 The state per plane is the particles' weighted vote of their states at their true features,
 each with its own gap and its features known to within :data:`READOUT_SPREAD` (a cloud that has
@@ -101,10 +98,8 @@ SPREAD_OUT = (CONVERGED[0], CONVERGED[0], CONVERGED[1], CONVERGED[1], 0.03, 2e-6
 #: Floors of the resampling kernel's covariance (dx, dy, θx, θy, μ, g, ln k): a collapsed cloud
 #: still moves.
 JITTER_FLOOR = (1e-7, 1e-7, 1e-5, 1e-5, 1e-3, 3e-8, 0.01)
-#: A cloud is lost when its surprise (how much worse it explains the samples than a particle at
-#: the truth would, on average: :meth:`DeviationFilter.surprise`), averaged over
-#: :data:`SURPRISE_MEMORY` updates, is below this [nats a sample]; it is then drawn again with
-#: the full particle count (module doc).
+#: A cloud is lost, and drawn again, when its surprise (:meth:`DeviationFilter.surprise`) averaged
+#: over :data:`SURPRISE_MEMORY` updates is below this [nats a sample] (module doc).
 LOST = -2.5
 SURPRISE_MEMORY = 40
 #: How far a redraw moves each particle (dx, dy, θx, θy, μ, ·, ln k): 10 µm, 5 mrad (lost clouds
@@ -240,7 +235,7 @@ class DeviationFilter:
         window, _ = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
         depth = max(float(window.mean(axis=0)[2]), 0.0)
         prior = self.weights
-        ll = self.log_likelihoods(w[0], window, prior)
+        ll = self._log_likelihoods(w[0], window, prior)
         self.updates += 1
         scale = min(1.0, self.updates / self.anneal) if self.anneal else 1.0
         annealed = self.updates > self.anneal
@@ -270,6 +265,11 @@ class DeviationFilter:
         weighed in; ``weights`` the normalised ones when the caller has them."""
         w, _ = as_rows(response, "response", "(Fx, Fy, Fz, Mx, My) in N, N·m")
         window, _ = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
+        return self._log_likelihoods(w[0], window, weights)
+
+    def _log_likelihoods(self, w: FloatArray, window: FloatArray,
+                         weights: FloatArray | None) -> FloatArray:  # fmt: skip
+        """:meth:`log_likelihoods` of a checked response (5,) and window (n, 5)."""
         mean = window.mean(axis=0)
         touching = np.ascontiguousarray(self.true_features(mean))  # the contact model's rows
         np.maximum(touching[:, 2], 0.0, out=touching[:, 2])
@@ -280,7 +280,7 @@ class DeviationFilter:
         if len(window) > 1:
             weights = self.weights if weights is None else weights
             predicted += self._window_gap(window, angles, predicted[:, 2], weights)
-        return log_likelihood(w[0], max(float(mean[2]), 0.0), predicted, touching[:, 2],
+        return log_likelihood(w, max(float(mean[2]), 0.0), predicted, touching[:, 2],
                               self.nominal, self._noise)  # fmt: skip
 
     def _window_gap(self, window: FloatArray, angles: int, fz: FloatArray,

@@ -33,7 +33,10 @@ def calibrated(votes: FloatArray, fit: str) -> FloatArray:
     if fit not in SHARPNESS:
         raise ValueError(f"fit {fit!r}: expected one of {', '.join(SHARPNESS)}")
     power = SHARPNESS[fit]
-    if power == 1.0:
-        return votes
+    return votes if power == 1.0 else sharpened(votes, power)
+
+
+def sharpened(votes: FloatArray, power: float) -> FloatArray:
+    """``votes`` (..., 9) raised to ``power`` and normalised again, row by row."""
     sharp = np.power(votes, power)
     return sharp / sharp.sum(axis=-1, keepdims=True)  # type: ignore[no-any-return]
