@@ -27,7 +27,9 @@ votes uncalibrated (``state_calibration.SHARPNESS`` set to 1) and, pooled over e
 case run, scores them raised to each power: the share right, the calibration error, the
 log-loss of the true state and the calibration (how ``SHARPNESS`` was chosen). With several
 seeds, a last line per case pools them: the share right over all its insertions, and how often a
-case of ``--trials`` insertions drawn from them falls under 90 %.
+case of ``--trials`` insertions drawn from them falls under 90 %. ``--by-time`` adds, per case
+pooled over the seeds, the share named right and the probability stated by the time since the
+insertion's first scored sample (``TIME_EDGES``).
 """
 
 from __future__ import annotations
@@ -57,12 +59,15 @@ FAINT = 3.0
 def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
          per_insertion: bool = False, spreads: tuple[float, ...] = (), wrist: bool = False,
          votes: list[tuple[np.ndarray, np.ndarray]] | None = None,
-         shares: list[float] | None = None) -> str:  # fmt: skip
+         shares: list[float] | None = None, by_time: np.ndarray | None = None,
+         ) -> str:  # fmt: skip
     """The share named right, the CPU, the free and the faint shares; ``per_insertion``, first
     a line per insertion. The filter is told the part's k (to within the uncertainty's
     factor), or, ``unknown_k``, nothing of it. ``votes`` collects each insertion's P(state)
     where scored (n, 2, 9) and the true states' indices (n, 2); ``shares`` each insertion's share
-    named right."""
+    named right; ``by_time`` (len(TIME_EDGES) - 1, 3) adds, per window of the time since the
+    insertion's first scored sample, the samples, those named right and the probabilities
+    stated."""
     sc = scenario_io.load(scenario_io.find(f"config/scenarios/robust_{fit}.yaml"))
     if wrist:
         sc = dataclasses.replace(sc, geometry=sc.geometry.replace(acting_point="peg_top"))
@@ -107,6 +112,13 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
             free += int((truth[plane] == "P0").sum())
             faint += int(((truth[plane] != "P0") & (force < FAINT * unc.noise[2])).sum())
         right += hits
+        if by_time is not None:
+            since = traj.t[rows[inside]] - traj.t[rows[inside][0]]
+            window = np.searchsorted(TIME_EDGES, since, side="right") - 1
+            for plane in range(2):
+                np.add.at(by_time, (window, 0), 1)
+                np.add.at(by_time, (window, 1), named[inside, plane] == truth[plane])
+                np.add.at(by_time, (window, 2), stated[inside, plane])
         if shares is not None:
             shares.append(hits / (2 * int(inside.sum())))
         scored += 2 * int(inside.sum())
@@ -121,6 +133,22 @@ def case(fit: str, k: float, trials: int, seed: int, unknown_k: bool = False,
         summary += (f"\n  readout spread {s:g} m: right {t.accuracy:.3f}, calibration error "
                     f"{t.calibration_error():.3f}; {calibration_text(t.calibration())}")
     return "\n".join([*lines, summary] if per_insertion else [summary])
+
+
+#: The windows of time since an insertion's first scored sample [s] that ``--by-time`` reads
+#: the share right in: the first updates in the hole, before the history says much.
+TIME_EDGES = np.array([0.0, 0.05, 0.125, 0.25, 0.5, 1.0, np.inf])
+
+
+def by_time_text(item: str, seeds: list[int], tally: np.ndarray) -> str:
+    """Per window of TIME_EDGES, pooled over ``seeds``: the share of the scored samples in it,
+    the share named right and the mean probability stated (``case``'s ``by_time``)."""
+    total = tally[:, 0].sum()
+    windows = zip(TIME_EDGES[:-1], TIME_EDGES[1:], tally, strict=True)
+    cells = [f"{lo:g}-{hi:g} s: {n / total:.3f} of the samples, right {r / n:.3f}, stated "
+             f"{p / n:.3f}" for lo, hi, (n, r, p) in windows if n]  # fmt: skip
+    return (f"{item} by the time since the first scored sample (seeds "
+            f"{','.join(map(str, seeds))}):\n  " + "\n  ".join(cells))
 
 
 #: Cases drawn from the pooled insertions to tell how often a case falls under 90 %.
@@ -169,6 +197,9 @@ def main() -> None:
                         help="powers, comma-separated: the filter runs uncalibrated, and the "
                              "votes of every case and seed run, raised to each, are scored "
                              "pooled (state_calibration's choice)")
+    parser.add_argument("--by-time", action="store_true",
+                        help="per case, pooled over the seeds: the share named right by the "
+                             "time since the first scored sample")
     parser.add_argument("--per-insertion", action="store_true",
                         help="a line per insertion: right, lowest surprise mean, redraws")
     args = parser.parse_args()
@@ -193,14 +224,19 @@ def main() -> None:
         if item.partition(":")[0] not in ("clearance", "interference"):
             parser.error(f"--cases {item!r}: expected clearance:k or interference:k")
     shares: dict[str, list[float]] = {item: [] for item in items}
+    times = {item: np.zeros((len(TIME_EDGES) - 1, 3)) for item in items}
     for seed in seeds:
         for item in items:
             fit, _, k = item.partition(":")
             print(case(fit, float(k), args.trials, seed, args.unknown_k, args.per_insertion,
-                       spreads, args.wrist, votes, shares[item]), flush=True)
+                       spreads, args.wrist, votes, shares[item],
+                       times[item] if args.by_time else None), flush=True)
     if len(seeds) > 1:
         for item in items:
             print(pooled_text(item, seeds, shares[item], args.trials), flush=True)
+    if args.by_time:
+        for item in items:
+            print(by_time_text(item, seeds, times[item]), flush=True)
     for power in powers:
         print(powers_text(votes or [], power), flush=True)
 

@@ -86,3 +86,17 @@ def test_filter_along_scores_the_votes_raised_to_powers() -> None:
     assert "log-loss " in one and "0.99–1.00: " in three, out
     pooled = [line for line in out if " pooled over seeds 0,1 (2 insertions): right " in line]
     assert len(pooled) == 1 and "falls under 0.90 with probability " in pooled[0], out
+
+
+def test_filter_along_splits_the_share_right_by_the_time_in_the_hole() -> None:
+    out = _run("scripts/studies/filter_along.py", "--trials", "1", "--cases", "clearance:1e9",
+               "--by-time").strip().splitlines()  # fmt: skip
+    right = float(out[0].split("right ")[1].split(",")[0])
+    head = out.index("clearance:1e9 by the time since the first scored sample (seeds 0):")
+    windows = [line.strip() for line in out[head + 1:]]
+    assert windows[0].startswith("0-0.05 s: ") and windows[-1].startswith("1-inf s: "), out
+    share = [float(w.split(": ")[1].split(" of")[0]) for w in windows]
+    named = [float(w.split("right ")[1].split(",")[0]) for w in windows]
+    # the windows split the scored samples: their shares add up, and so does the share right
+    assert abs(sum(share) - 1.0) < 0.004, out
+    assert abs(sum(s * r for s, r in zip(share, named, strict=True)) - right) < 0.005, out
