@@ -240,7 +240,7 @@ class DeviationFilter:
         scale = min(1.0, self.updates / self.anneal) if self.anneal else 1.0
         annealed = self.updates > self.anneal
         if depth > ENTRY_DEPTH:  # on the top face the model does not describe the contact
-            s = self.surprise(w[0], depth, ll, prior)
+            s = self.surprise(w[0], depth, ll, prior, len(window))
             self.surprise_mean += (s - self.surprise_mean) / SURPRISE_MEMORY
         lost = self.surprise_mean < LOST
         if ll.max() <= CONTACT_MISMATCH and annealed:
@@ -304,17 +304,16 @@ class DeviationFilter:
         return (fz / h[-1, 2])[:, None] * gap
 
     def surprise(self, w: FloatArray, depth: float, ll: FloatArray,
-                 weights: FloatArray | None = None) -> float:  # fmt: skip
-        """How much better (> 0) or worse (< 0) the cloud explains one sample (5,), whose
-        log-likelihood per particle is ``ll``, than a particle at the truth would on average
-        [nats]: the log of the weighted mean likelihood plus what the sensor's noise alone
-        costs (:func:`~fbcc_ros.core.control.state_likelihood.noise_misfit`). A cloud that has
-        settled where the hole is not pays tens of nats a sample where a right one pays its
-        noise's."""
+                 weights: FloatArray | None = None, samples: int = 1) -> float:  # fmt: skip
+        """How much better (> 0) or worse (< 0) the cloud explains one sample (5,), the mean of
+        ``samples``, whose log-likelihood per particle is ``ll``, than a particle at the truth
+        would on average [nats]: the log of the weighted mean likelihood plus what the noise
+        alone costs (:func:`~fbcc_ros.core.control.state_likelihood.noise_misfit`). A lost
+        cloud pays nats a sample more than a right one."""
         top = float(ll.max())
         weights = self.weights if weights is None else weights
         mean = float(np.log(weights @ np.exp(ll - top))) + top
-        return mean + noise_misfit(w, depth, self.nominal, self._noise)
+        return mean + noise_misfit(w, depth, self.nominal, self._noise, samples)
 
     def states(self, x: FloatArray, weights: FloatArray | None = None,
                spread: tuple[float, float] = READOUT_SPREAD) -> FloatArray:  # fmt: skip

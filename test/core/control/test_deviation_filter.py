@@ -307,12 +307,13 @@ def test_a_wide_cloud_weighs_with_the_coarse_model(monkeypatch: pytest.MonkeyPat
     assert np.abs(coarse - fine).max() < 0.1 * fine.max()  # the same cloud, to within its model
 
 
+@pytest.mark.parametrize("samples", [1, 5])  # one sample, and the mean of the feed's window
 @pytest.mark.parametrize("fz", [2.0, 0.02])  # a contact's Fz, and one within the noise
-def test_a_cloud_at_the_truth_is_not_surprised_by_noise(fz: float) -> None:
-    """A cloud at the hole's true deviation, fed noisy readings of its own response: its
-    surprise averages about zero (what the noise alone costs is what a particle at the truth
-    pays), in contact and, in the hole, in a light touch whose Fz is within the noise; it is
-    never redrawn."""
+def test_a_cloud_at_the_truth_is_not_surprised_by_noise(fz: float, samples: int) -> None:
+    """A cloud at the hole's true deviation, fed noisy readings of its own response, each the
+    mean of ``samples``: its surprise averages about zero (what the noise alone costs is what a
+    particle at the truth pays), in contact and, in the hole, in a light touch whose Fz is
+    within the noise; it is never redrawn."""
     sc = scenario_io.load(scenario_io.find("config/scenarios/robust_clearance.yaml"))
     nominal = sc.geometry
     unc = Uncertainty()
@@ -327,12 +328,12 @@ def test_a_cloud_at_the_truth_is_not_surprised_by_noise(fz: float) -> None:
     rng = np.random.default_rng(8)
     surprise = []
     for _ in range(300):
-        reading = truth + rng.normal(0.0, 1.0, 5) * unc.noise
+        reading = truth + rng.normal(0.0, 1.0, (samples, 5)).mean(axis=0) * unc.noise
         x = f.true_features(features)
         predicted = nominal.response(x)
         ll = log_likelihood(reading, depth, predicted, x[:, 2], nominal, unc.noise)
-        surprise.append(f.surprise(reading, depth, ll))
-        f.update(reading, features)
+        surprise.append(f.surprise(reading, depth, ll, samples=samples))
+        f.update(reading, np.tile(features, (samples, 1)))
     assert abs(np.mean(surprise)) < 0.3, np.mean(surprise)
     assert f.redraws == 0
 
