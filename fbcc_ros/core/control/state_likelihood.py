@@ -139,9 +139,8 @@ def noise_misfit(w: FloatArray, depth: float, nominal: PegHole, noise: FloatArra
     """What a particle at the truth pays, on average, for the sensor's noise alone on a sample
     like ``w`` (5,) at ``depth`` [nats]: E[log(1 + e^2)] of each kernel, e the noise over the
     kernel's scale. ``w`` is the mean of ``samples`` of the sensor's (``state_feed``): its noise
-    is the sensor's over √samples, where the kernels keep one sample's (a right cloud's
-    surprise then averages zero; with one sample's noise here it averaged +1 nat on a light
-    touch in a clearance)."""
+    is the sensor's over √samples, where the kernels keep one sample's, so that a right
+    cloud's surprise averages zero."""
     fz = w[2]
     if not fz > CONTACT_SIGMAS * noise[2]:
         if not depth > ENTRY_DEPTH:
