@@ -98,11 +98,20 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-#: The controller's stale-input timeout with the nodes in one process, chained (no DDS, no
-#: queue between them): a gap there is the machine's, 50 ms tells a dead input sooner, and the
-#: fault drills are measured with it. As processes (--processes, ros2 run, ros2 launch) the
-#: default, 0.25 s, rides over the stalls of four processes on two cores.
+#: The stall the controller's stale-input timeout allows beyond one period of the cell's rate
+#: with the nodes in one process, chained (no DDS, no queue between them): a gap there is the
+#: machine's, 50 ms tells a dead input sooner, and the fault drills are measured with it. The
+#: period is added because an input of a 100 Hz stack (the LBR's) is 10 ms old before anything
+#: stalls: with 50 ms alone, one-process rehearsals of it faulted on gaps of 52-53 ms on a slow
+#: two-core machine where the 1 kHz cell did not. As processes (--processes, ros2 run, ros2
+#: launch) the default, 0.25 s, rides over the stalls of four processes on two cores.
 IN_PROCESS_TIMEOUT = 0.05
+
+
+def in_process_timeout(rate_hz: float) -> float:
+    """The controller's ``timeout`` [s] in one process at the cell's rate [Hz]:
+    :data:`IN_PROCESS_TIMEOUT` beyond one period (51 ms at 1 kHz, 60 ms at 100 Hz)."""
+    return IN_PROCESS_TIMEOUT + 1.0 / rate_hz
 
 
 def cell_nodes(
@@ -124,8 +133,8 @@ def cell_nodes(
     factories = {"mock_cell": MockCellNode, "dynamic_compensation": DynamicCompensationNode,
                  "kinematics": KinematicsNode, "fbcc_controller": FbccControllerNode}
     own: dict[str, dict[str, Any]] = {"mock_cell": {"draw_geometry": draw_geometry, "seed": seed},
-           "fbcc_controller": {"law": law,
-                               **({} if processes else {"timeout": IN_PROCESS_TIMEOUT})}}
+           "fbcc_controller": {"law": law, **({} if processes else
+                                              {"timeout": in_process_timeout(sc.rate_hz)})}}
     setup = CellSetup(profile_of(sc.cell.conventions), path, namespace=sc.cell.namespace)
     nodes = harness_cell_nodes(setup)
     for said in deadband_warnings(nodes):

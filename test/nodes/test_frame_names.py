@@ -13,7 +13,7 @@ from geometry_msgs.msg import PoseStamped, WrenchStamped
 
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.harness.cell_run import CellRun
-from fbcc_ros.nodes.bringup import IN_PROCESS_TIMEOUT, cell_nodes, start_insertion
+from fbcc_ros.nodes.bringup import cell_nodes, start_insertion
 from fbcc_ros.ros import topics
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -32,7 +32,8 @@ def test_topics_in_the_hole_frame_carry_its_name_and_a_tool_frame_places_the_too
             spec.parameters.update(FRAMES)
         if spec.name in ("mock_cell", "kinematics"):
             spec.parameters.update(TOOL)
-    assert any(s.name == "fbcc_controller" and s.parameters["timeout"] == IN_PROCESS_TIMEOUT
+    # in one process: 50 ms of stall beyond the 1 kHz cell's period
+    assert any(s.name == "fbcc_controller" and s.parameters["timeout"] == pytest.approx(0.051)
                for s in specs)  # fmt: skip
     frames: dict[str, set[str]] = {}
     with CellRun(specs) as run:
@@ -50,3 +51,18 @@ def test_topics_in_the_hole_frame_carry_its_name_and_a_tool_frame_places_the_too
     assert frames == {t: {"assembly_hole"} for t in (topics.FEATURES,
                       topics.COMPENSATED_WRENCH, topics.COMMAND)}  # fmt: skip
     assert truth[3] > 1e-3  # the peg went in: the kinematics placed the tool as the mock did
+
+
+def test_in_one_process_the_timeout_allows_the_stall_beyond_the_cells_period() -> None:
+    """The LBR stack's inputs come at 100 Hz: 10 ms old before anything stalls."""
+    lbr = str(ROOT / "config" / "scenarios" / "lbr_rehearsal.yaml")
+    sc = scenario_io.load(lbr)
+    assert sc.rate_hz == 100
+
+    def timeout(processes: bool) -> Any:
+        (spec,) = [s for s in cell_nodes(lbr, sc, "fbcc", processes=processes)
+                   if s.name == "fbcc_controller"]  # fmt: skip
+        return spec.parameters.get("timeout")
+
+    assert timeout(False) == pytest.approx(0.06)
+    assert timeout(True) is None  # as processes: the node's default, 0.25 s
