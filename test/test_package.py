@@ -153,15 +153,24 @@ def test_state_study_writes_its_tables_and_confusion_matrices(tmp_path: Path) ->
                                "--trials", "1", "--placement", "peg_top"]) == 0  # fmt: skip
     results = json.loads((tmp_path / "state_study.json").read_text())
     cases = [k for k in results if k != "settings"]
-    assert len(cases) == 10  # per fit: two ways of drawing, three stiffnesses
+    assert len(cases) == 12  # per fit: two ways of drawing, three stiffnesses, those pooled
     assert all(", F/T at the wrist |" in case for case in cases)
     for case in cases:
         methods = {m: r for m, r in results[case].items() if isinstance(r, dict)}
         assert len(methods) == 3
         for r in methods.values():
             assert sum(map(sum, r["confusion"])) == r["samples"] > 0
-    assert "| interference, F/T at the wrist | insertions, k 1 GPa | estimator, history |" in (
-        tmp_path / "state_study.md").read_text()
+    fit = "interference, F/T at the wrist"
+    pooled = results[f"{fit} | insertions, k 0.184 + 0.5 + 1 GPa"]["estimator, history"]
+    per_k = [results[f"{fit} | insertions, k {k} GPa"]["estimator, history"]
+             for k in ("0.184", "0.5", "1")]  # fmt: skip
+    assert pooled["samples"] == sum(r["samples"] for r in per_k)
+    assert pooled["insertions"] == 3 and all(r["interval"] is None for r in per_k)  # one each
+    lo, hi = pooled["interval"]
+    assert lo <= pooled["accuracy"] <= hi
+    md = (tmp_path / "state_study.md").read_text()
+    assert f"| {fit} | insertions, k 1 GPa | estimator, history |" in md
+    assert f"| {fit} | insertions, k 0.184 + 0.5 + 1 GPa | estimator, history |" in md
     assert (tmp_path / "state_study.png").stat().st_size > 10000
 
 

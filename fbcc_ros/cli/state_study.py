@@ -1,6 +1,9 @@
 """The contact-state study of ``fbcc-mapping-study --estimator``: runs
 :mod:`fbcc_ros.core.sim.state_study` for both fits (drawn responses, both ways of drawing
-magnitudes; insertions at three stiffnesses each) and writes its JSON, Markdown and figure."""
+magnitudes; insertions at three stiffnesses each, and those pooled) and writes its JSON,
+Markdown and figure. Along insertions each share comes with its 95 % interval over the
+insertions (``Tally.interval``): a share of 16 insertions moves by several points with the
+seed."""
 
 from __future__ import annotations
 
@@ -21,7 +24,12 @@ from fbcc_ros.core.contact.segmentation import STATES
 from fbcc_ros.core.control.contact_state import ContactStateEstimator
 from fbcc_ros.core.control.contact_uncertainty import MAGNITUDES
 from fbcc_ros.core.sim import scenario as scenario_io
-from fbcc_ros.core.sim.state_study import calibration_text, drawn_study, trajectory_study
+from fbcc_ros.core.sim.state_study import (
+    Tally,
+    calibration_text,
+    drawn_study,
+    trajectory_study,
+)
 
 #: The insertions' stiffnesses [Pa] per fit: the calibrated ABS, and stiffer ones the robust law
 #: assembles (interference up to where the push-in stays within the force limit).
@@ -51,6 +59,7 @@ def run_state_study(samples: int, trials: int, seed: int,
             tallies = drawn_study(estimator, samples, seed, magnitudes)
             results[f"{case} | drawn, {magnitudes} magnitudes"] = {
                 method: t.as_dict() for method, t in tallies.items()}
+        per_k: list[dict[str, Tally]] = []
         for k in stiffnesses:
             def progress(i: int, _n: int, before: int = done) -> None:
                 bar(before + i, runs)
@@ -60,13 +69,28 @@ def run_state_study(samples: int, trials: int, seed: int,
             results[f"{case} | insertions, k {k / 1e9:g} GPa"] = {
                 "insertions assembled": success,
                 **{method: t.as_dict() for method, t in tallies.items()}}
+            per_k.append(tallies)
             done += trials
+        # the fit and placement as the issue states its goal: its insertions at every k
+        results[f"{case} | {pooled_case(stiffnesses)}"] = {
+            method: Tally.pooled([t[method] for t in per_k]).as_dict() for method in per_k[0]}
     return results
 
 
+def pooled_case(stiffnesses: tuple[float, ...]) -> str:
+    """How the table names a fit's insertions at all its ``stiffnesses`` [Pa] together."""
+    return f"insertions, k {' + '.join(f'{k / 1e9:g}' for k in stiffnesses)} GPa"
+
+
+def interval_text(r: dict[str, Any]) -> str:
+    """A method's interval over insertions (``Tally.as_dict``), or a dash."""
+    interval = r.get("interval")
+    return "–" if interval is None else f"{interval[0]:.3f}–{interval[1]:.3f}"
+
+
 def to_markdown(results: dict[str, Any]) -> str:
-    lines = ["| fit | responses | method | right | samples | per state (right) |",
-             "|---|---|---|---|---|---|"]  # fmt: skip
+    lines = ["| fit | responses | method | right | 95 % interval (over insertions) | samples "
+             "| per state (right) |", "|---|---|---|---|---|---|---|"]  # fmt: skip
     for key, val in results.items():
         if key == "settings":
             continue
@@ -75,8 +99,8 @@ def to_markdown(results: dict[str, Any]) -> str:
             if not isinstance(r, dict):
                 continue
             states = ", ".join(f"{s} {d['accuracy']:.2f}" for s, d in r["per_state"].items())
-            lines.append(f"| {fit} | {case} | {method} | {r['accuracy']:.3f} | {r['samples']} "
-                         f"| {states} |")  # fmt: skip
+            lines.append(f"| {fit} | {case} | {method} | {r['accuracy']:.3f} | "
+                         f"{interval_text(r)} | {r['samples']} | {states} |")  # fmt: skip
     lines += ["", "Calibration of the estimator (stated probability: share right, samples):", ""]
     for key, val in results.items():
         for method, r in val.items():

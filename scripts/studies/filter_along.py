@@ -27,7 +27,9 @@ votes uncalibrated (``state_calibration.SHARPNESS`` set to 1) and, pooled over e
 case run, scores them raised to each power: the share right, the calibration error, the
 log-loss of the true state and the calibration (how ``SHARPNESS`` was chosen). With several
 seeds, a last line per case pools them: the share right over all its insertions, and how often a
-case of ``--trials`` insertions drawn from them falls under 90 %. ``--by-time`` adds, per case
+case of ``--trials`` insertions drawn from them falls under 90 %; and a line per fit run at
+several stiffnesses, how often a study of ``--trials`` at each (the state study's pooled row)
+falls under 90 %. ``--by-time`` adds, per case
 pooled over the seeds, the share named right and the probability stated by the time since the
 insertion's first scored sample (``TIME_EDGES``).
 """
@@ -166,6 +168,20 @@ def pooled_text(item: str, seeds: list[int], shares: list[float], trials: int) -
             f"{np.percentile(cases, 5):.3f})")
 
 
+def fit_pooled_text(fit: str, seeds: list[int], shares: list[list[float]], trials: int) -> str:
+    """A fit as the state study pools it (``fbcc-mapping-study --estimator``: ``trials``
+    insertions at each of its stiffnesses): its share pooled over ``seeds``, and how often such
+    a study falls under 0.90, each stiffness's ``trials`` drawn from that stiffness's
+    insertions (``shares``, one list per stiffness)."""
+    rng = np.random.default_rng(0)
+    studies = np.mean([rng.choice(np.array(v), size=(BOOTSTRAP, trials)).mean(axis=1)
+                       for v in shares], axis=0)  # fmt: skip
+    return (f"{fit}, its {len(shares)} stiffnesses pooled over seeds {','.join(map(str, seeds))}"
+            f": right {np.mean([np.mean(v) for v in shares]):.3f}; a study of {trials} a "
+            f"stiffness falls under 0.90 with probability {np.mean(studies < 0.9):.3f} (5th "
+            f"percentile {np.percentile(studies, 5):.3f})")
+
+
 def powers_text(votes: list[tuple[np.ndarray, np.ndarray]], power: float) -> str:
     """The uncalibrated ``votes`` (``case``'s) raised to ``power`` and normalised
     (``state_calibration.sharpened``): share right, calibration error, log-loss of the true
@@ -234,6 +250,10 @@ def main() -> None:
     if len(seeds) > 1:
         for item in items:
             print(pooled_text(item, seeds, shares[item], args.trials), flush=True)
+        for fit in ("clearance", "interference"):
+            of_fit = [shares[item] for item in items if item.partition(":")[0] == fit]
+            if len(of_fit) > 1:
+                print(fit_pooled_text(fit, seeds, of_fit, args.trials), flush=True)
     if args.by_time:
         for item in items:
             print(by_time_text(item, seeds, times[item]), flush=True)

@@ -6,6 +6,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -86,6 +88,19 @@ def test_filter_along_scores_the_votes_raised_to_powers() -> None:
     assert "log-loss " in one and "0.99–1.00: " in three, out
     pooled = [line for line in out if " pooled over seeds 0,1 (2 insertions): right " in line]
     assert len(pooled) == 1 and "falls under 0.90 with probability " in pooled[0], out
+
+
+def test_filter_along_pools_a_fits_stiffnesses_as_the_state_study_does() -> None:
+    out = _run("scripts/studies/filter_along.py", "--trials", "1", "--seed", "0,1", "--cases",
+               "clearance:1e9,clearance:1e10").strip().splitlines()  # fmt: skip
+    shares = {line.split(",")[0] + line.split(",")[1]: float(line.split("right ")[1][:5])
+              for line in out if line.startswith("clearance 1")}  # fmt: skip
+    fit = [line for line in out if line.startswith("clearance, its 2 stiffnesses pooled over "
+                                                   "seeds 0,1: right ")]  # fmt: skip
+    assert len(shares) == 4 and len(fit) == 1, out
+    # the fit's share is the mean of its four insertions' (one per seed and stiffness)
+    assert abs(float(fit[0].split("right ")[1][:5]) - np.mean(list(shares.values()))) < 2e-3
+    assert "a study of 1 a stiffness falls under 0.90 with probability " in fit[0], out
 
 
 def test_filter_along_splits_the_share_right_by_the_time_in_the_hole() -> None:

@@ -38,6 +38,9 @@ from fbcc_ros.core.sim.simulation import simulate
 #: The bins of the stated probability in which the calibration is counted.
 CALIBRATION_EDGES = (0.0, 0.3, 0.5, 0.7, 0.9, 0.99, 1.0 + 1e-9)
 _INDEX = {s: i for i, s in enumerate(STATES)}
+#: The level of a share's interval over insertions, and the bootstrap's draws.
+INTERVAL_LEVEL = 0.95
+RESAMPLES = 10_000
 #: A part is drawn only if its quasi-static push-in is within this share of the force limit
 #: (as ``fbcc-montecarlo`` draws them).
 PUSH_IN_SHARE = 2.0 / 3.0
@@ -57,12 +60,18 @@ class Tally:
     #: Σ of the stated probabilities per bin (their mean, for the calibration error)
     stated_sum: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros(len(CALIBRATION_EDGES) - 1))
+    #: (right, samples) of each insertion added as one (the unit :meth:`interval` resamples)
+    insertions: list[tuple[int, int]] = dataclasses.field(default_factory=list)
 
-    def add(self, truth: np.ndarray, named: np.ndarray, probability: FloatArray | None = None
-            ) -> None:  # fmt: skip
+    def add(self, truth: np.ndarray, named: np.ndarray, probability: FloatArray | None = None,
+            insertion: bool = False) -> None:  # fmt: skip
+        """Count named states against the true ones; ``insertion``: these are one insertion's
+        samples, kept apart for :meth:`interval`."""
         t = np.array([_INDEX[s] for s in truth.ravel()], dtype=np.int64)
         n = np.array([_INDEX[s] for s in named.ravel()], dtype=np.int64)
         np.add.at(self.confusion, (t, n), 1)
+        if insertion:
+            self.insertions.append((int(np.sum(t == n)), len(t)))
         if probability is not None:
             b = np.searchsorted(CALIBRATION_EDGES, probability.ravel(), side="right") - 1
             np.add.at(self.stated, b, 1)
@@ -74,6 +83,29 @@ class Tally:
         total = self.confusion.sum()
         return float(np.trace(self.confusion) / total) if total else math.nan
 
+    def interval(self, level: float = INTERVAL_LEVEL) -> tuple[float, float] | None:
+        """A ``level`` interval of :attr:`accuracy` over the insertions (None under two): the
+        samples of one insertion are not independent, its insertions are. The percentile
+        bootstrap of Σ right / Σ samples over :data:`RESAMPLES` draws of the insertions with
+        replacement, seeded, so a study's table is reproducible."""
+        if len(self.insertions) < 2:
+            return None
+        right, samples = np.array(self.insertions, dtype=float).T
+        pick = np.random.default_rng(0).integers(0, len(right), (RESAMPLES, len(right)))
+        shares = right[pick].sum(axis=1) / samples[pick].sum(axis=1)
+        lo, hi = np.quantile(shares, [(1 - level) / 2, (1 + level) / 2])
+        return float(lo), float(hi)
+
+    @classmethod
+    def pooled(cls, tallies: list[Tally]) -> Tally:
+        """The tallies' samples and insertions as one tally."""
+        out = cls()
+        for t in tallies:
+            for name in ("confusion", "stated", "right", "stated_sum"):
+                getattr(out, name)[...] += getattr(t, name)
+            out.insertions += t.insertions
+        return out
+
     def per_state(self) -> dict[str, tuple[float, int]]:
         """Per true state: the share named right and the samples."""
         rows = self.confusion.sum(axis=1)
@@ -81,7 +113,10 @@ class Tally:
                 for i, s in enumerate(STATES) if rows[i]}  # fmt: skip
 
     def as_dict(self) -> dict[str, object]:
+        interval = self.interval()
         return {"accuracy": self.accuracy, "samples": int(self.confusion.sum()),
+                "insertions": len(self.insertions),
+                "interval": None if interval is None else list(interval),
                 "per_state": {s: {"accuracy": a, "samples": n}
                               for s, (a, n) in self.per_state().items()},
                 "confusion": self.confusion.tolist(), "calibration": self.calibration()}
@@ -185,11 +220,11 @@ def trajectory_study(sc: Scenario, estimator: ContactStateEstimator, stiffness: 
         truth = np.array([feature_state(x[k], parts[i]) for k in scored], dtype=object)
         depth = np.maximum(pose[scored, 2], 0.0)  # what the robot measures
         ws = w[scored]
-        tallies["boundary mapping"].add(truth, np.column_stack(response_state(ws, depth,
-                                                                              sc.geometry)))
-        tallies["estimator, one response"].add(truth, *most_probable(
-            estimator.probabilities(ws, depth)))
-        tallies["estimator, history"].add(truth, *most_probable(named[inside]))
+        tallies["boundary mapping"].add(
+            truth, np.column_stack(response_state(ws, depth, sc.geometry)), insertion=True)
+        tallies["estimator, one response"].add(
+            truth, *most_probable(estimator.probabilities(ws, depth)), insertion=True)
+        tallies["estimator, history"].add(truth, *most_probable(named[inside]), insertion=True)
         if progress is not None:
             progress(i + 1, trials)
     return tallies, float(outcome.success.mean())
