@@ -98,20 +98,12 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-#: The stall the controller's stale-input timeout allows beyond one period of the cell's rate
-#: with the nodes in one process, chained (no DDS, no queue between them): a gap there is the
-#: machine's, 50 ms tells a dead input sooner, and the fault drills are measured with it. The
-#: period is added because an input of a 100 Hz stack (the LBR's) is 10 ms old before anything
-#: stalls: with 50 ms alone, one-process rehearsals of it faulted on gaps of 52-53 ms on a slow
-#: two-core machine where the 1 kHz cell did not. As processes (--processes, ros2 run, ros2
-#: launch) the default, 0.25 s, rides over the stalls of four processes on two cores.
-IN_PROCESS_TIMEOUT = 0.05
-
-
-def in_process_timeout(rate_hz: float) -> float:
-    """The controller's ``timeout`` [s] in one process at the cell's rate [Hz]:
-    :data:`IN_PROCESS_TIMEOUT` beyond one period (51 ms at 1 kHz, 60 ms at 100 Hz)."""
-    return IN_PROCESS_TIMEOUT + 1.0 / rate_hz
+#: The controller's stale-input timeout in one process, chained (no DDS, no queue between them),
+#: is this stall of the machine's beyond one period of the cell's rate (a 100 Hz input is 10 ms
+#: old before anything stalls; docs/safety.md): 50 ms tells a dead input sooner, and the fault
+#: drills are measured with it. As processes (--processes, ros2 run, ros2 launch) the default,
+#: 0.25 s, rides over the stalls of four processes on two cores.
+IN_PROCESS_STALL = 0.05
 
 
 def cell_nodes(
@@ -134,7 +126,7 @@ def cell_nodes(
                  "kinematics": KinematicsNode, "fbcc_controller": FbccControllerNode}
     own: dict[str, dict[str, Any]] = {"mock_cell": {"draw_geometry": draw_geometry, "seed": seed},
            "fbcc_controller": {"law": law, **({} if processes else
-                                              {"timeout": in_process_timeout(sc.rate_hz)})}}
+                                              {"timeout": IN_PROCESS_STALL + 1 / sc.rate_hz})}}
     setup = CellSetup(profile_of(sc.cell.conventions), path, namespace=sc.cell.namespace)
     nodes = harness_cell_nodes(setup)
     for said in deadband_warnings(nodes):
