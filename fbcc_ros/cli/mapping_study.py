@@ -128,7 +128,8 @@ def draw(results: dict[str, Any], path: Path) -> None:
 #: Insertions per fit and stiffness by default, as in ``docs/boundary-mapping.md``. The state
 #: study's 48 know a share of about 0.93 to ±3 points (an insertion's share right varies by
 #: about 0.1 between insertions: 1.96 · 0.1 / √48 = 0.028), enough to tell it from the 90 %
-#: goal; at 16 a soft clearance's 95 % interval reaches under 0.90. The gate study's 24.
+#: goal; at 16 a soft clearance's 95 % interval reaches under 0.90. ``--gate`` runs 24, the
+#: size of its study in the docs.
 TRIALS = {"estimator": 48, "gate": 24}
 
 
@@ -150,8 +151,8 @@ def main(argv: list[str] | None = None) -> int:
                         "(under the hole, at the wrist; default both)")
     parser.add_argument("--trials", type=int, default=None,
                         help="with --estimator or --gate: insertions per fit and stiffness "
-                             f"(default {TRIALS['estimator']} and {TRIALS['gate']}, the "
-                             "studies of the docs; about 4 s each)")
+                             f"(default {TRIALS['estimator']} with --estimator, "
+                             f"{TRIALS['gate']} with --gate; about 4 s each)")
     parser.add_argument("--gate", action="store_true",
                         help="whether the contact state helps the law: the same insertions "
                              "(--trials per fit and stiffness) alone and gated")

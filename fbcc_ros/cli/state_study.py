@@ -2,8 +2,8 @@
 :mod:`fbcc_ros.core.sim.state_study` for both fits (drawn responses, both ways of drawing
 magnitudes; insertions at three stiffnesses each, and those pooled) and writes its JSON,
 Markdown and figure. Along insertions each share comes with its 95 % interval over the
-insertions (``Tally.interval``): a share of 16 insertions moves by several points with the
-seed."""
+insertions (``Tally.interval``): a share of a few dozen insertions still moves by a few
+points with the seed."""
 
 from __future__ import annotations
 

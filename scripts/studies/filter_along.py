@@ -52,7 +52,9 @@ from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import simulate
 from fbcc_ros.core.sim.state_study import Tally, calibration_text, drawn_insertions
 
-CASES = "clearance:1.84e8,clearance:1e9,clearance:1e10,interference:5e8,interference:1e9"
+#: The state study's cases (``cli/state_study.STIFFNESS``).
+CASES = ("clearance:1.84e8,clearance:1e9,clearance:1e10,interference:1.84e8,interference:5e8,"
+         "interference:1e9")
 #: A touch under this many deviations of the sensor's noise in |F| is below what one sample
 #: shows.
 FAINT = 3.0
@@ -172,7 +174,8 @@ def fit_pooled_text(fit: str, seeds: list[int], shares: list[list[float]], trial
     """A fit as the state study pools it (``fbcc-mapping-study --estimator``: ``trials``
     insertions at each of its stiffnesses): its share pooled over ``seeds``, and how often such
     a study falls under 0.90, each stiffness's ``trials`` drawn from that stiffness's
-    insertions (``shares``, one list per stiffness)."""
+    insertions (``shares``, one list per stiffness). Each insertion counts alike, where the
+    study weighs them by their samples: they hold about as many (1 600 each)."""
     rng = np.random.default_rng(0)
     studies = np.mean([rng.choice(np.array(v), size=(BOOTSTRAP, trials)).mean(axis=1)
                        for v in shares], axis=0)  # fmt: skip

@@ -58,10 +58,10 @@ def test_the_controllers_contact_states_are_the_filters_along_the_recorded_sessi
     online = report_states.recorded_states(bag, s, nominal)
     offline = report_states.estimate_states(s, nominal)
     assert online is not None and offline is not None
-    # the session recorded is the whole run: it spans the scenario's duration (how many samples
-    # fill it is the loop's, 802 on an idle machine and 695 on a slow one). The filter may still
-    # be catching up when the run ends (800 answers on an idle machine, 327 to 483 in CI runs):
-    # what it answered is a prefix, of at least the first second (200)
+    # the session recorded is the whole run: it spans the scenario's duration (how many
+    # filter updates fill it, one per fifth loop cycle, is the loop's: 802 on an idle machine,
+    # 695 on a slow one). The filter may still be catching up when the run ends (800 answered
+    # on an idle machine, 327 to 483 in CI runs): a prefix, of at least the first second (200)
     duration = scenario_io.load(SCENARIO).duration
     n = len(online["t"])
     assert n == len(rows) and n >= 200, n
