@@ -42,6 +42,7 @@ import time
 
 import numpy as np
 
+from fbcc_ros.cli.state_study import STIFFNESS
 from fbcc_ros.core.contact.segmentation import STATES, feature_state
 from fbcc_ros.core.control.contact_state import most_probable
 from fbcc_ros.core.control.contact_uncertainty import Uncertainty
@@ -52,9 +53,8 @@ from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import simulate
 from fbcc_ros.core.sim.state_study import Tally, calibration_text, drawn_insertions
 
-#: The state study's cases (``cli/state_study.STIFFNESS``).
-CASES = ("clearance:1.84e8,clearance:1e9,clearance:1e10,interference:1.84e8,interference:5e8,"
-         "interference:1e9")
+#: The state study's cases.
+CASES = ",".join(f"{fit}:{k:g}" for fit, ks in STIFFNESS.items() for k in ks)
 #: A touch under this many deviations of the sensor's noise in |F| is below what one sample
 #: shows.
 FAINT = 3.0
@@ -159,11 +159,21 @@ def by_time_text(item: str, seeds: list[int], tally: np.ndarray) -> str:
 BOOTSTRAP = 100_000
 
 
+def drawn_studies(shares: list[list[float]], trials: int) -> np.ndarray:
+    """The shares right of BOOTSTRAP studies of ``trials`` insertions at each stiffness, each
+    drawn with replacement from that stiffness's insertions' ``shares`` (one list each), each
+    insertion counted alike (the state study weighs them by their samples: they hold about
+    as many, 1 600 each)."""
+    rng = np.random.default_rng(0)
+    return np.mean([rng.choice(np.array(v), size=(BOOTSTRAP, trials)).mean(axis=1)
+                    for v in shares], axis=0)  # fmt: skip
+
+
 def pooled_text(item: str, seeds: list[int], shares: list[float], trials: int) -> str:
     """The share named right pooled over ``seeds`` (the insertions' mean) and, drawing cases of
     ``trials`` insertions from them with replacement, how often a case falls under 0.90."""
     v = np.array(shares)
-    cases = np.random.default_rng(0).choice(v, size=(BOOTSTRAP, trials)).mean(axis=1)
+    cases = drawn_studies([shares], trials)
     return (f"{item} pooled over seeds {','.join(map(str, seeds))} ({len(v)} insertions): right "
             f"{v.mean():.3f}, under 0.8 right {int(np.sum(v < 0.8))}; a case of {trials} falls "
             f"under 0.90 with probability {np.mean(cases < 0.9):.3f} (5th percentile "
@@ -173,12 +183,8 @@ def pooled_text(item: str, seeds: list[int], shares: list[float], trials: int) -
 def fit_pooled_text(fit: str, seeds: list[int], shares: list[list[float]], trials: int) -> str:
     """A fit as the state study pools it (``fbcc-mapping-study --estimator``: ``trials``
     insertions at each of its stiffnesses): its share pooled over ``seeds``, and how often such
-    a study falls under 0.90, each stiffness's ``trials`` drawn from that stiffness's
-    insertions (``shares``, one list per stiffness). Each insertion counts alike, where the
-    study weighs them by their samples: they hold about as many (1 600 each)."""
-    rng = np.random.default_rng(0)
-    studies = np.mean([rng.choice(np.array(v), size=(BOOTSTRAP, trials)).mean(axis=1)
-                       for v in shares], axis=0)  # fmt: skip
+    a study falls under 0.90 (:func:`drawn_studies`; ``shares``, one list per stiffness)."""
+    studies = drawn_studies(shares, trials)
     return (f"{fit}, its {len(shares)} stiffnesses pooled over seeds {','.join(map(str, seeds))}"
             f": right {np.mean([np.mean(v) for v in shares]):.3f}; a study of {trials} a "
             f"stiffness falls under 0.90 with probability {np.mean(studies < 0.9):.3f} (5th "
