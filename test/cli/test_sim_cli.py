@@ -11,6 +11,7 @@ import pytest
 
 from fbcc_ros.cli import montecarlo, sim
 from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim import study_goals
 from fbcc_ros.core.sim.montecarlo import draw_trials
 from fbcc_ros.core.sim.simulation import Outcome
 
@@ -130,14 +131,14 @@ def test_a_study_success_meets_every_per_trial_goal() -> None:
         force_limited=np.array([0, 0, 0, 0, 1, 0], bool),
         guard_trips=np.zeros(n), holder_unconverged=np.zeros(n),
     )  # fmt: skip
-    missed = montecarlo.missed_goals(outcome)
+    missed = study_goals.missed_goals(outcome)
     assert missed[0] == []
     assert missed[1] == ["assembled in 3.07 s > 3 s"]
     assert missed[2] == ["residual 0.60 N > 0.5 N"]
     assert missed[3] == ["not assembled at the end"] and missed[4] == ["force limit"]
     assert missed[5] == ["tilt overshoot 0.23 deg"]
     trials = draw_trials(scenario_io.load(SCENARIOS / "robust_clearance.yaml").geometry, n, 0)
-    rows = montecarlo.goals(outcome, trials)
+    rows = study_goals.goals(outcome, trials)
     assert rows["success"]["measured"] == pytest.approx(1 / 6) and rows["success"]["failed"] == 5
     # and each per-trial goal is also judged on every assembled trial
     assert rows["insertion_time_s"]["over_target"] == 1 and not rows["insertion_time_s"]["met"]

@@ -1,0 +1,113 @@
+"""The goals of the robustness study (issue "one FBCC configuration from soft plastic to
+steel"), judged on a Monte Carlo's outcome: each goal with the measured figure beside its target,
+and every trial that missed one with what reproduces it (``fbcc-montecarlo``'s ``summary.json``).
+
+A trial of the study succeeds when it meets every per-trial goal (:func:`missed_goals`); the
+study asks that share to be >= ``GOAL_SUCCESS``. The overshoot, residual and time goals are
+also judged on every trial (``docs/reproduction.md`` says why), the peak Fz on the medians.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from fbcc_ros.core.sim.montecarlo import Trials, wilson_interval
+from fbcc_ros.core.sim.simulation import Outcome
+
+#: The goals of the robustness study (issue "one FBCC configuration from soft plastic to
+#: steel"): the measured figure beside each target.
+GOAL_SUCCESS = 0.999
+GOAL_RESIDUAL = 0.5  # [N]
+GOAL_TIME = 3.0  # [s] from the start, 10 mm at 5 mm/s
+GOAL_PEAK_FZ = 15.0  # [N] clearance: median peak; interference: median peak above push-in
+GOAL_OVERSHOOT = 0.0035  # [rad] a tilt past zero beyond the success tolerance counts
+
+
+def missed_goals(outcome: Outcome) -> list[list[str]]:
+    """Per trial, the per-trial goals it missed (empty: it met them all): assembled within the
+    force limit, by ``GOAL_TIME``, with at most ``GOAL_RESIDUAL`` of lateral force left and no
+    tilt overshoot. A trial that missed any is a failed trial of the study, listed."""
+    out = []
+    for i in range(len(outcome.success)):
+        why = []
+        if outcome.force_limited[i]:
+            why.append("force limit")
+        elif not outcome.success[i]:
+            why.append("not assembled at the end")
+        else:
+            if outcome.insertion_time[i] > GOAL_TIME:
+                why.append(f"assembled in {outcome.insertion_time[i]:.2f} s > {GOAL_TIME:g} s")
+            if outcome.residual_force[i] > GOAL_RESIDUAL:
+                why.append(f"residual {outcome.residual_force[i]:.2f} N > {GOAL_RESIDUAL:g} N")
+        if outcome.tilt_overshoot[i] > GOAL_OVERSHOOT:
+            why.append(f"tilt overshoot {math.degrees(outcome.tilt_overshoot[i]):.2f} deg")
+        out.append(why)
+    return out
+
+
+def goals(outcome: Outcome, trials: Trials) -> dict[str, Any]:
+    """The study's goals, each with the measured figure and whether it holds.
+
+    ``success`` is the share of trials that met every per-trial goal (:func:`missed_goals`).
+    The overshoot, residual and time rows judge every trial (every assembled one), the reading
+    the project holds (``docs/reproduction.md``): a trial over 3 s fails the time goal even
+    when 99.9 % meet every goal. The peak Fz rows judge the medians."""
+    push_in = np.array([g.push_in_force() for g in trials.geometries])
+    ok = outcome.success
+    t = outcome.insertion_time[ok]
+    met = np.array([not why for why in missed_goals(outcome)])
+    lo, hi = wilson_interval(int(met.sum()), len(met))
+    excess = outcome.peak_fz - push_in
+    interference = push_in > 0
+    rows: dict[str, Any] = {
+        "success": {"measured": float(met.mean()), "ci95": [lo, hi],
+                    "failed": int((~met).sum()),
+                    "target": f">= {GOAL_SUCCESS} of trials assembled within the force limit, "
+                              f"by {GOAL_TIME:g} s, residual <= {GOAL_RESIDUAL:g} N, "
+                              f"no tilt overshoot",
+                    "met": float(met.mean()) >= GOAL_SUCCESS},
+        "tilt_overshoot_deg": {
+            "measured": math.degrees(float(outcome.tilt_overshoot.max())),
+            "target": f"no trial past {math.degrees(GOAL_OVERSHOOT):.2f} deg",
+            "met": bool((outcome.tilt_overshoot <= GOAL_OVERSHOOT).all())},
+        "residual_force_N": {
+            "measured": float(outcome.residual_force[ok].max()) if ok.any() else None,
+            "over_target": int((outcome.residual_force[ok] > GOAL_RESIDUAL).sum()),
+            "target": f"<= {GOAL_RESIDUAL} in every assembled trial",
+            "met": bool((outcome.residual_force[ok] <= GOAL_RESIDUAL).all())},
+        "insertion_time_s": {
+            "measured": float(t.max()) if len(t) else None,
+            "over_target": int((t > GOAL_TIME).sum()),
+            "target": f"<= {GOAL_TIME} in every assembled trial",
+            "met": bool((t <= GOAL_TIME).all())},
+    }  # fmt: skip
+    for label, mask, value in (("peak_fz_clearance_median_N", ~interference, outcome.peak_fz),
+                               ("peak_fz_over_push_in_median_N", interference, excess)):
+        if mask.any():
+            med = float(np.median(value[mask]))
+            rows[label] = {"measured": med, "target": f"<= {GOAL_PEAK_FZ}",
+                           "met": med <= GOAL_PEAK_FZ, "trials": int(mask.sum())}  # fmt: skip
+    return rows
+
+
+def failures(outcome: Outcome, trials: Trials, seed: int, noise_seed: int, batch: int,
+             limit: int = 200) -> list[dict[str, Any]]:
+    """Every trial that missed a goal (up to ``limit``; :func:`missed_goals`) with what
+    reproduces it: the study's seed and the trial's index, its part and deviation, and the
+    noise seed of its batch."""
+    rows = []
+    missed = missed_goals(outcome)
+    for i in [i for i, why in enumerate(missed) if why][:limit]:
+        g, d = trials.geometries[i], trials.initial[i]
+        rows.append({
+            "trial": int(i), "seed": seed, "noise_seed": noise_seed + int(i) // batch,
+            "why": "; ".join(missed[i]),
+            "stiffness": g.stiffness, "friction": g.friction, "hole_radius": g.hole_radius,
+            "peg_radius": g.peg_radius, "deviation": [float(d[j]) for j in (0, 1, 3, 4)],
+            "final_features": [float(v) for v in outcome.final_features[i]],
+            "peak_fz": float(outcome.peak_fz[i]),
+        })  # fmt: skip
+    return rows
