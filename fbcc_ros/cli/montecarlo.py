@@ -15,8 +15,8 @@ DIR receives ``trials.csv`` (one row per trial and law, with its material and th
 its batch), ``summary.json`` (the simulator's success, assembled within the force limit, with its
 95 % Wilson interval; percentiles of the metrics; the goals of the robustness study with the
 measured figures, whose success is a trial that met every per-trial goal; every trial that missed
-one, with what reproduces it), ``histograms.png`` and, when k is drawn, ``stiffness.png`` (success
-and peak Fz against k).
+one, with what reproduces it: :mod:`fbcc_ros.core.sim.study_goals`), ``histograms.png`` and, when k
+is drawn, ``stiffness.png`` (success, peak Fz and insertion time against k).
 
     fbcc-montecarlo SCENARIO.yaml --trials 10000 ... --out DIR --trial 2653 [5412 ...]
 
