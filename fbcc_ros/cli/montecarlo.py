@@ -154,7 +154,8 @@ def draw(results: dict[str, Outcome], path: Path) -> None:
     plt.close(fig)
 
 
-def draw_stiffness(trials: Trials, results: dict[str, Outcome], path: Path) -> None:
+def draw_stiffness(trials: Trials, results: dict[str, Outcome],
+                   missed_by_law: dict[str, list[list[str]]], path: Path) -> None:
     """Success rate per ninth of the k range (log), and every trial's peak Fz and insertion
     time against k, with the time goal; a trial that missed a goal (:func:`missed_goals`) is
     ringed in the time panel, so the study's tail is seen where it lies."""
@@ -168,7 +169,7 @@ def draw_stiffness(trials: Trials, results: dict[str, Outcome], path: Path) -> N
         a1.semilogx(np.sqrt(edges[:-1] * edges[1:]), np.array(rate) * 100, "o-", label=law)
         a2.loglog(k[o.success], o.peak_fz[o.success], ".", ms=2, label=f"{law}: assembled")
         a2.loglog(k[~o.success], o.peak_fz[~o.success], "x", ms=4, label=f"{law}: failed")
-        missed = np.array([bool(why) for why in missed_goals(o)])
+        missed = np.array([bool(why) for why in missed_by_law[law]])
         (dots,) = a3.semilogx(k[o.success], o.insertion_time[o.success], ".", ms=2,
                               label=f"{law}: assembled")  # fmt: skip
         late = missed & o.success
@@ -279,10 +280,12 @@ def main(argv: list[str] | None = None) -> int:
                              scheduler=args.scheduler)  # fmt: skip
     elapsed = time.perf_counter() - start
     summary: dict[str, Any] = {}
+    missed: dict[str, list[list[str]]] = {}
     for law, o in results.items():
         summary[law] = summarise(o)
-        summary[law]["goals"] = goals(o, trials)
-        summary[law]["failures"] = failures(o, trials, args.seed, sc.seed, BATCH)
+        missed[law] = missed_goals(o)
+        summary[law]["goals"] = goals(o, trials, missed[law])
+        summary[law]["failures"] = failures(o, trials, missed[law], args.seed, sc.seed, BATCH)
     summary["_run"] = {
         "scenario": str(args.scenario), "trials": args.trials, "seed": args.seed,
         "workers": args.workers, "scheduler": args.scheduler, "seconds": elapsed,
@@ -295,7 +298,7 @@ def main(argv: list[str] | None = None) -> int:
     write_trials(trials, results, out / "trials.csv")
     draw(results, out / "histograms.png")
     if stiffness_gpa is not None:
-        draw_stiffness(trials, results, out / "stiffness.png")
+        draw_stiffness(trials, results, missed, out / "stiffness.png")
     for law in laws:
         s = summary[law]
         lo, hi = s["success_ci95"]

@@ -40,11 +40,10 @@ from fbcc_ros.core.control.state_gate import (
 from fbcc_ros.core.sim.scenario import Scenario
 from fbcc_ros.core.sim.simulation import Outcome, simulate
 from fbcc_ros.core.sim.state_study import drawn_insertions
+from fbcc_ros.core.sim.study_goals import GOAL_TIME
 
 #: The arms of the study, in the order they run.
 ARMS = ("law alone", "gated by the filter", "gated by the truth", "tilts gated by the truth")
-#: Insertion time over which a trial misses the robustness study's goal [s].
-SLOW = 3.0
 _INDEX = {s: i for i, s in enumerate(STATES)}
 
 
@@ -95,7 +94,7 @@ def summary(outcome: Outcome) -> dict[str, Any]:
         "force_limited": int(outcome.force_limited.sum()),
         "time_median": float(np.median(done)) if len(done) else math.nan,
         "time_max": float(done.max()) if len(done) else math.nan,
-        "over_3s": int((done > SLOW).sum()),
+        "over_3s": int((done > GOAL_TIME).sum()),
         "peak_fz_median": float(np.median(outcome.peak_fz)),
         "tilt_overshoot_max_deg": math.degrees(float(outcome.tilt_overshoot.max())),
         "misadjustment_max_deg": math.degrees(float(outcome.tilt_misadjustment.max())),

@@ -37,7 +37,7 @@ def test_a_study_success_meets_every_per_trial_goal() -> None:
     assert missed[3] == ["not assembled at the end"] and missed[4] == ["force limit"]
     assert missed[5] == ["tilt overshoot 0.23 deg"]
     trials = draw_trials(scenario_io.load(SCENARIOS / "robust_clearance.yaml").geometry, n, 0)
-    rows = study_goals.goals(outcome, trials)
+    rows = study_goals.goals(outcome, trials, missed)
     assert rows["success"]["measured"] == pytest.approx(1 / 6) and rows["success"]["failed"] == 5
     # and each per-trial goal is also judged on every assembled trial
     assert rows["insertion_time_s"]["over_target"] == 1 and not rows["insertion_time_s"]["met"]
