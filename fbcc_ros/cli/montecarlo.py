@@ -68,6 +68,7 @@ _METRICS = (
     ("residual_force", 1.0, "N"),
     ("residual_moment", 1.0, "N·m"),
     ("tilt_overshoot", 180 / math.pi, "deg"),
+    ("tilt_misadjustment", 180 / math.pi, "deg"),
     ("insertion_time", 1.0, "s"),
 )
 
@@ -124,7 +125,8 @@ def write_trials(trials: Trials, results: dict[str, Outcome], path: Path) -> Non
         w = csv.writer(f)
         w.writerow(["law", "trial", "dx0", "dy0", "theta_x0", "theta_y0", "hole_radius",
                     "peg_radius", "stiffness", "friction", "success", "insertion_time", "peak_fz",
-                    "residual_force", "residual_moment", "tilt_overshoot", "force_limited",
+                    "residual_force", "residual_moment", "tilt_overshoot", "tilt_misadjustment",
+                    "force_limited",
                     *(f"final_{n}" for n in FEATURE_NAMES)])  # fmt: skip
         for law, o in results.items():
             for i in range(len(trials)):
@@ -134,7 +136,8 @@ def write_trials(trials: Trials, results: dict[str, Outcome], path: Path) -> Non
                             f"{g.stiffness:.4g}", f"{g.friction:.4g}", int(o.success[i]),
                             f"{o.insertion_time[i]:.4g}", f"{o.peak_fz[i]:.4g}",
                             f"{o.residual_force[i]:.4g}", f"{o.residual_moment[i]:.4g}",
-                            f"{o.tilt_overshoot[i]:.4g}", int(o.force_limited[i]),
+                            f"{o.tilt_overshoot[i]:.4g}", f"{o.tilt_misadjustment[i]:.4g}",
+                            int(o.force_limited[i]),
                             *(f"{v:.6g}" for v in o.final_features[i])])  # fmt: skip
 
 

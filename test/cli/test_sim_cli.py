@@ -126,6 +126,9 @@ def test_montecarlo_replays_a_trial_of_a_study(
     summary = json.loads((folder / "summary.json").read_text())
     assert summary["peak_fz"] == pytest.approx(float(row["peak_fz"]), rel=1e-3)
     assert summary["success"] == bool(int(row["success"]))
+    # both failure kinds of the paper's Fig. 9 per trial: past zero, and grown the wrong way
+    for metric in ("tilt_overshoot", "tilt_misadjustment"):
+        assert summary[metric] == pytest.approx(float(row[metric]), rel=1e-3, abs=1e-9)
     assert (folder / "trajectories.png").stat().st_size > 10_000
     assert (folder / "trajectory.csv").exists()
     assert not (tmp_path / "again" / "trials.csv").exists()  # the study is not run again
