@@ -47,6 +47,15 @@ corrected): an upper bound on mu. For a peg pressed on one side the pressure spr
 and the bound is ~16 % above mu (pinned by a test); in a centred interference fit the ratio
 stays large and the estimate stays at its prior.
 
+**The lever's friction.** Eq. 24's lever puts the axial friction's moment at μR; a part whose
+μ is not the scenario's leaves cos γ Δμ of every lateral force in its tilt row. While the peg
+slides in (the depth rising), one contact on one side has ``Fz = μ |F_lat|`` and a moment whose
+lever ``-Mx/Fy = My/Fx`` is that contact's height plus μR; a wedged contact (both sides) reads
+Fz/|F_lat| of several times μ and a lever millimetres off the engaged wall, and is not counted
+(:func:`one_contact_friction`). The estimate the lever uses is the lower envelope of the
+filtered ratio over runs of such samples (:func:`lever_friction_update`); until one, the
+scenario's μ. The published ``friction`` above is the other, always-on bound.
+
 The interface the rest of the package uses is :class:`ContactEstimate`.
 """
 
@@ -78,6 +87,23 @@ TILT_FLOOR = 1.5
 FLOOR_MIN_DEPTH = 1e-4
 #: Relative upward drift of the friction estimate per second (lets an early low value recover).
 FRICTION_DRIFT = 0.05
+
+#: The lever's friction (module doc): samples count while the depth rises at this share of the
+#: insertion speed or more (sliding: Fz = mu |F_lat|), past this depth [m] (off the top face),
+#: with a lateral force over this [N]; a run of LEVER_SAMPLES such samples, low-passed over
+#: LEVER_FILTER [s], gives a value; a contact height more than LEVER_MARGIN [m] beyond the
+#: engaged wall is not one contact (the pressure spread and a tilt move it by tenths of mm, a
+#: wedge by millimetres).
+LEVER_SLIDE = 0.3
+LEVER_MIN_DEPTH = 1e-4
+LEVER_MIN_FORCE = 2.0
+LEVER_SAMPLES = 10
+LEVER_FILTER = 0.01
+LEVER_MARGIN = 3e-4
+LEVER_FRICTION_MIN = 0.05
+#: Columns of the lever's friction state: the estimate (0 until one), the filtered ratio, the
+#: samples of the current run.
+N_LEVER = 3
 
 #: Regressors of a plane's fit: its offset and tilt increments, the depth's, and 1.
 N_REG = 4
@@ -285,6 +311,37 @@ def friction_update(mu: float, fz: float, f_lat: float, f_min: float, dt: float)
     if f_lat <= f_min or fz <= 0.0:
         return mu
     return min(mu * (1.0 + FRICTION_DRIFT * dt), fz / f_lat)
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def one_contact_friction(w: FloatArray, depth: float, wall: float, radius: float) -> float:
+    """Fz/|F_lat| of the wrench w (Fx, Fy, Fz, Mx, My) when its moment puts one contact on the
+    engaged wall, else -1. ``wall`` is the lever of eq. 24 without its friction term (the mean
+    height of the engaged wall, ``depth`` long), ``radius`` R [m]."""
+    f2 = w[0] * w[0] + w[1] * w[1]
+    if f2 <= 0.0 or w[2] <= 0.0:
+        return -1.0
+    mu = w[2] / math.sqrt(f2)
+    lever = (w[4] * w[0] - w[3] * w[1]) / f2  # -Mx/Fy = My/Fx, both planes at once
+    if abs(lever - mu * radius - wall) > depth / 2.0 + LEVER_MARGIN:
+        return -1.0
+    return mu
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def lever_friction_update(s: FloatArray, sample: float, dt: float, friction_max: float) -> None:
+    """Advance the lever's friction state s (N_LEVER,) by one sample's ratio (< 0: none): a run
+    of LEVER_SAMPLES low-passed ratios under ``friction_max`` lowers the estimate to it."""
+    if sample < 0.0:
+        s[2] = 0.0
+        return
+    if s[2] == 0.0:
+        s[1] = sample
+    s[1] += (1.0 - math.exp(-dt / LEVER_FILTER)) * (sample - s[1])
+    s[2] += 1.0
+    if s[2] >= LEVER_SAMPLES and s[1] <= friction_max:
+        value = max(s[1], LEVER_FRICTION_MIN)
+        s[0] = value if s[0] == 0.0 else min(s[0], value)
 
 
 def forgetting(window: float, dt: float) -> float:

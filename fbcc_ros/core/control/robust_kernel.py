@@ -51,7 +51,8 @@ C_NOTCH = 48  # the guard's notches: each row's 2 at its plane's dither frequenc
 C_DEPTH_F = 64  # the depth loop's low-pass of each row (x, v)
 C_DNOTCH = 72  # the depth loop's notches, as C_NOTCH
 C_SAMPLES = 88  # samples since the start (the dither's phase)
-N_MAIN = 89
+C_LEVER = 89  # the lever's friction (identification.N_LEVER columns; 0: the scenario's μ)
+N_MAIN = C_LEVER + ident.N_LEVER
 
 # Indices into the parameter vector of the kernel.
 (P_WC, P_DB_X, P_DB_Y, P_DB_TX, P_DB_TY, P_FORGET, P_KMIN, P_RELEASE, P_DITH_F,
@@ -67,7 +68,8 @@ P_DEPTH_F = P_NOTCH_END + 1  # the depth loop's low-pass (filters.second_order_c
 P_DNOISE = P_DEPTH_F + 6  # what the depth loop discounts of each row: its noise there (4)
 P_SETTLE_GAIN = P_DNOISE + 4  # the lateral loops' gain once the depth is reached (of ω_c)
 P_TILT_RATE = P_SETTLE_GAIN + 1  # the fastest a tilt row turns the peg [rad/s]
-N_PARAMS = P_TILT_RATE + 1
+P_FRICTION_MAX = P_TILT_RATE + 1  # the largest friction the lever may take (0: off)
+N_PARAMS = P_FRICTION_MAX + 1
 
 
 def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray:
@@ -128,6 +130,7 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
     prm[P_SETTLE] = p.settle_force
     prm[P_SETTLE_GAIN] = p.settle_gain
     prm[P_TILT_RATE] = p.tilt_rate
+    prm[P_FRICTION_MAX] = p.friction_max
     prm[P_DEPTH_F : P_DEPTH_F + 6] = second_order_coefficients(
         p.depth_filter_frequency, p.filter_damping, dt)  # fmt: skip
     # the depth loop's effort is a row above its noise through that faster filter, as the
@@ -174,7 +177,10 @@ def robust_rows(
         if w[i, 0] * w[i, 0] + w[i, 1] * w[i, 1] + w[i, 2] * w[i, 2] > prm[P_FLIM2]:
             m[C_STOPPED] = 1.0
         depth = max(x[i, 2], 0.0)
-        direct_row(w[i], depth, prm[P_BASE], prm[P_PER_DEPTH], prm[P_HOLE_DEPTH],
+        # eq. 24's lever with the part's friction once known: base + (μ - μ_nominal) R
+        mu_part = m[C_LEVER] if m[C_LEVER] > 0.0 else prm[P_MU0]
+        base = prm[P_BASE] + (mu_part - prm[P_MU0]) * prm[P_HOLE_RADIUS]
+        direct_row(w[i], depth, base, prm[P_PER_DEPTH], prm[P_HOLE_DEPTH],
                    prm[P_HOLE_RADIUS], u)  # u = A(l) F, eq. (28)  # fmt: skip
         u[2] = 0.0  # the depth is not filtered: it has its own loop
         # contact: Fz or a row above its noise
@@ -198,11 +204,21 @@ def robust_rows(
         identify = contact and m[C_HAVE_PREV] > 0.0
         ident.identify_planes(idn[i], d_rows, x[i, 2] - m[C_PREV_X + 2], d_u, identify,
                               prm[P_FORGET], floor, release, backoff)  # fmt: skip
+        # the lever's friction from samples sliding in on one contact (identification doc)
+        f_lat = math.sqrt(w[i, 0] * w[i, 0] + w[i, 1] * w[i, 1])
+        sample = -1.0
+        if (identify and prm[P_FRICTION_MAX] > 0.0 and depth >= ident.LEVER_MIN_DEPTH
+                and x[i, 2] - m[C_PREV_X + 2] >= ident.LEVER_SLIDE * prm[P_SPEED] * dt
+                and f_lat > max(5.0 * prm[P_SU_X], ident.LEVER_MIN_FORCE)):
+            wall = (prm[P_BASE] - prm[P_MU0] * prm[P_HOLE_RADIUS]
+                    - min(depth, prm[P_HOLE_DEPTH]) / 2.0 + prm[P_PER_DEPTH] * depth)
+            sample = ident.one_contact_friction(w[i], depth, wall, prm[P_HOLE_RADIUS])
+        ident.lever_friction_update(m[C_LEVER : C_LEVER + ident.N_LEVER], sample, dt,
+                                    prm[P_FRICTION_MAX])  # fmt: skip
         for f in range(5):
             m[C_PREV_X + f] = x[i, f]
             m[C_PREV_U + f] = u[f]
         m[C_HAVE_PREV] = 1.0
-        f_lat = math.sqrt(w[i, 0] * w[i, 0] + w[i, 1] * w[i, 1])
         m[C_MU] = ident.friction_update(m[C_MU], w[i, 2], f_lat, 5.0 * prm[P_SU_X], dt)
         # H_f: the filtered rows ū (eq. 27 with unit DC gain)
         xf = m[C_X : C_X + 5]

@@ -107,6 +107,12 @@ class RobustParams:
             their lever arms are too short to tell a tilt from an offset: on a hole whose top
             face is tilted, the rim contact turned the peg the wrong way by degrees and it
             jammed (docs/reproduction.md). The offsets, and the depth, still move there.
+        friction_max: The largest friction coefficient the lever of A(l) may take from the
+            contact (:func:`fbcc_ros.core.control.identification.one_contact_friction`): eq.
+            24 puts the axial friction's moment at μR, and a part whose μ differs from the
+            scenario's by Δμ leaves cos γ Δμ of every lateral force in its tilt row (a tilt
+            turned past zero or the wrong way, ``docs/reproduction.md``). A sliding sample
+            reading more is taken for a wedged contact; 0 keeps the scenario's μ.
         offset_resolution, tilt_resolution: The smallest offset [m] and tilt [rad] the law
             resolves: each row's stiffness is at least its filtered noise over this, so noise
             alone cannot drive a row by more.
@@ -151,6 +157,7 @@ class RobustParams:
     lateral_lead: float = 2e-5
     tilt_lead: float = 2e-3
     tilt_depth: float = 2e-4
+    friction_max: float = 0.8
     F_ext_limit: float = 300.0
 
     POSITIVE: ClassVar[tuple[str, ...]] = (
@@ -189,6 +196,9 @@ class RobustParams:
         c = self.coupling_limit
         if isinstance(c, bool) or not isinstance(c, (int, float)) or not 0.0 <= c < 1.0:
             raise ConfigError("coupling_limit", c, "a number in [0, 1): 0 ignores the coupling")
+        f = self.friction_max
+        if isinstance(f, bool) or not isinstance(f, (int, float)) or not 0.0 <= f <= 2.0:
+            raise ConfigError("friction_max", f, "a friction coefficient in [0, 2] (0: off)")
         t = self.tilt_depth
         if isinstance(t, bool) or not isinstance(t, (int, float)) or not 0.0 <= t <= 5e-3:
             raise ConfigError("tilt_depth", t, "a depth in [0, 0.005] m")
