@@ -187,6 +187,13 @@ def apply_direction(response: FloatArray, depth: FloatArray, peghole: PegHole) -
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
+def lever_at(depth: float, base: float, per_depth: float, hole_depth: float) -> float:
+    """Eq. 24's lever at ``depth`` [m] from ``PegHole.lever_terms`` (as
+    ``PegHole.boundary_lever``, for the compiled steps)."""
+    return base - min(depth, hole_depth) / 2.0 + per_depth * depth
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
 def direct_row(
     w: FloatArray,
     depth: float,
@@ -198,7 +205,7 @@ def direct_row(
 ) -> None:
     """One row of ``A(l) F`` into ``out`` (5,); the lever is ``PegHole.lever_terms``'s."""
     # gamma of eq. (29): tan(gamma) = lever / R, lever of eq. (24)
-    gamma = math.atan((base - min(depth, hole_depth) / 2.0 + per_depth * depth) / hole_radius)
+    gamma = math.atan(lever_at(depth, base, per_depth, hole_depth) / hole_radius)
     sg, cg_r = math.sin(gamma), math.cos(gamma) / hole_radius
     out[0], out[1], out[2] = w[0], w[1], w[2]
     out[3] = sg * w[1] + cg_r * w[3]  # theta_x: sin(gamma) Fy + cos(gamma) Mx / R

@@ -46,9 +46,10 @@ its gain rises; turning faster than the response can come back, the tilt passes 
 
 **Lever friction.** A(l)'s lever (eq. 24) holds the axial friction's moment at μR. With the
 scenario's μ where the part's differs by Δμ, cos γ Δμ of every lateral force reads as tilt (0.044
-for Δμ = 0.15 here): while the offset rows correct the entry it turned aligned tilts past zero
-and tilted ones the wrong way by up to 1°. The lever takes the part's μ once the identification
-has read it on one contact sliding in (``friction_max``; identification, the lever's friction).
+for Δμ = 0.15 here): while the offset rows correct the entry it turns aligned tilts past zero
+and tilted ones the wrong way (by up to 1° in the study, ``docs/reproduction.md``). The
+lever takes the part's μ once the identification has read it on one contact sliding in
+(``friction_max``; identification, the lever's friction).
 
 **Excitation.** A dither per row, at its own frequency, of ``dither_force`` / k̂ (offsets) and
 ``dither_effort`` / k̂ (tilts), capped at ``dither_max_offset`` / ``dither_max_tilt``, keeps the

@@ -12,7 +12,7 @@ import numpy as np
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import PegHole
-from fbcc_ros.core.contact.segmentation import direct_row
+from fbcc_ros.core.contact.segmentation import direct_row, lever_at
 from fbcc_ros.core.control import guard as guard_mod
 from fbcc_ros.core.control import identification as ident
 from fbcc_ros.core.control.loop_design import design
@@ -202,16 +202,18 @@ def robust_rows(
         # at the depth nothing excites the fit: it may raise the estimate, not release it
         release = prm[P_RELEASE] if m[C_REACHED] == 0.0 else 1.0
         identify = contact and m[C_HAVE_PREV] > 0.0
-        ident.identify_planes(idn[i], d_rows, x[i, 2] - m[C_PREV_X + 2], d_u, identify,
+        d_depth = x[i, 2] - m[C_PREV_X + 2]
+        ident.identify_planes(idn[i], d_rows, d_depth, d_u, identify,
                               prm[P_FORGET], floor, release, backoff)  # fmt: skip
         # the lever's friction from samples sliding in on one contact (identification doc)
         f_lat = math.sqrt(w[i, 0] * w[i, 0] + w[i, 1] * w[i, 1])
         sample = -1.0
         if (identify and prm[P_FRICTION_MAX] > 0.0 and depth >= ident.LEVER_MIN_DEPTH
-                and x[i, 2] - m[C_PREV_X + 2] >= ident.LEVER_SLIDE * prm[P_SPEED] * dt
+                and d_depth >= ident.LEVER_SLIDE * prm[P_SPEED] * dt
                 and f_lat > max(5.0 * prm[P_SU_X], ident.LEVER_MIN_FORCE)):
-            wall = (prm[P_BASE] - prm[P_MU0] * prm[P_HOLE_RADIUS]
-                    - min(depth, prm[P_HOLE_DEPTH]) / 2.0 + prm[P_PER_DEPTH] * depth)
+            # the nominal lever less its friction arm: the engaged wall's mean height
+            wall = (lever_at(depth, prm[P_BASE], prm[P_PER_DEPTH], prm[P_HOLE_DEPTH])
+                    - prm[P_MU0] * prm[P_HOLE_RADIUS])
             sample = ident.one_contact_friction(w[i], depth, wall, prm[P_HOLE_RADIUS])
         ident.lever_friction_update(m[C_LEVER : C_LEVER + ident.N_LEVER], sample, dt,
                                     prm[P_FRICTION_MAX])  # fmt: skip

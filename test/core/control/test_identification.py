@@ -21,10 +21,8 @@ NOMINAL = scenario.load(ROOT / "config" / "scenarios" / "robust_clearance.yaml")
 def _sample(part: PegHole, features: list[float]) -> float:
     """What the law reads of the contact model's wrench at ``features``, with the nominal
     pair's lever (its μ 0.3): the wall's mean height without the friction term."""
-    base, per_depth = NOMINAL.lever_terms()
     depth = features[2]
-    wall = (base - NOMINAL.friction * NOMINAL.hole_radius
-            - min(depth, NOMINAL.hole_depth) / 2 + per_depth * depth)  # fmt: skip
+    wall = float(NOMINAL.boundary_lever(depth)) - NOMINAL.friction * NOMINAL.hole_radius
     w = part.response(np.array(features, dtype=float))
     return float(ident.one_contact_friction(w, depth, wall, NOMINAL.hole_radius))
 
