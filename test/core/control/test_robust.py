@@ -176,7 +176,8 @@ def test_robust_is_the_default_and_labels_stay_available() -> None:
     with pytest.raises(ConfigError, match=r"params\.fz_back_off"):
         params_from_mapping({"fz_back_off": 400.0})  # above the force limit
     for name, bad in (("settle_force", -0.1), ("depth_filter_frequency", 0.0),
-                      ("depth_filter_frequency", "400")):  # fmt: skip
+                      ("depth_filter_frequency", "400"), ("friction_max", 3.0),
+                      ("friction_max", True)):  # fmt: skip
         with pytest.raises(ConfigError, match=rf"params\.{name}") as err:
             params_from_mapping({name: bad})
         assert str(bad) in str(err.value) and "expected a" in str(err.value), err.value
