@@ -16,7 +16,9 @@ its batch), ``summary.json`` (the simulator's success, assembled within the forc
 95 % Wilson interval; percentiles of the metrics; the goals of the robustness study with the
 measured figures, whose success is a trial that met every per-trial goal; every trial that missed
 one, with what reproduces it: :mod:`fbcc_ros.core.sim.study_goals`), ``histograms.png`` and, when k
-is drawn, ``stiffness.png`` (success, peak Fz and insertion time against k).
+is drawn, ``stiffness.png`` (success, peak Fz and insertion time against k); with the robust law,
+``friction.png`` (the friction its lever measured against each part's μ; ``summary.json``'s
+``friction_estimate`` gives its error).
 
     fbcc-montecarlo SCENARIO.yaml --trials 10000 ... --out DIR --trial 2653 [5412 ...]
 
@@ -126,7 +128,7 @@ def write_trials(trials: Trials, results: dict[str, Outcome], path: Path) -> Non
         w.writerow(["law", "trial", "dx0", "dy0", "theta_x0", "theta_y0", "hole_radius",
                     "peg_radius", "stiffness", "friction", "success", "insertion_time", "peak_fz",
                     "residual_force", "residual_moment", "tilt_overshoot", "tilt_misadjustment",
-                    "force_limited",
+                    "force_limited", "friction_estimate",
                     *(f"final_{n}" for n in FEATURE_NAMES)])  # fmt: skip
         for law, o in results.items():
             for i in range(len(trials)):
@@ -137,8 +139,45 @@ def write_trials(trials: Trials, results: dict[str, Outcome], path: Path) -> Non
                             f"{o.insertion_time[i]:.4g}", f"{o.peak_fz[i]:.4g}",
                             f"{o.residual_force[i]:.4g}", f"{o.residual_moment[i]:.4g}",
                             f"{o.tilt_overshoot[i]:.4g}", f"{o.tilt_misadjustment[i]:.4g}",
-                            int(o.force_limited[i]),
+                            int(o.force_limited[i]), f"{o.friction_estimate[i]:.4g}",
                             *(f"{v:.6g}" for v in o.final_features[i])])  # fmt: skip
+
+
+def friction_accuracy(outcome: Outcome, trials: Trials) -> dict[str, Any] | None:
+    """The friction the robust law's lever (eq. 24) measured against each part's μ: on how
+    many trials it measured one, and its error there; None when it measured none."""
+    est = outcome.friction_estimate
+    measured = np.isfinite(est)
+    if not measured.any():
+        return None
+    err = est[measured] - np.array([g.friction for g in trials.geometries])[measured]
+    return {"measured": int(measured.sum()), "trials": len(est),
+            "error_median": float(np.median(err)),
+            "abs_error_median": float(np.median(np.abs(err))),
+            "abs_error_p95": float(np.percentile(np.abs(err), 95)),
+            "abs_error_max": float(np.abs(err).max())}  # fmt: skip
+
+
+def draw_friction(trials: Trials, results: dict[str, Outcome], path: Path) -> bool:
+    """The friction the lever measured against each part's μ, per law that measures one;
+    False (nothing drawn) when none did."""
+    mu = np.array([g.friction for g in trials.geometries])
+    measuring = {law: o for law, o in results.items() if np.isfinite(o.friction_estimate).any()}
+    if not measuring:
+        return False
+    fig, ax = plt.subplots(figsize=(5.5, 5))
+    for law, o in measuring.items():
+        ok = np.isfinite(o.friction_estimate)
+        ax.plot(mu[ok], o.friction_estimate[ok], ".", ms=3,
+                label=f"{law}: measured on {int(ok.sum())}/{len(ok)}")  # fmt: skip
+    ax.plot([mu.min(), mu.max()], [mu.min(), mu.max()], "k--", lw=0.8, label="the part's μ")
+    ax.set(xlabel="the part's friction μ", ylabel="friction in the lever (eq. 24), at the end")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return True
 
 
 def draw(results: dict[str, Outcome], path: Path) -> None:
@@ -289,6 +328,7 @@ def main(argv: list[str] | None = None) -> int:
         missed[law] = missed_goals(o)
         summary[law]["goals"] = goals(o, trials, missed[law])
         summary[law]["failures"] = failures(o, trials, missed[law], args.seed, sc.seed, BATCH)
+        summary[law]["friction_estimate"] = friction_accuracy(o, trials)
     summary["_run"] = {
         "scenario": str(args.scenario), "trials": args.trials, "seed": args.seed,
         "workers": args.workers, "scheduler": args.scheduler, "seconds": elapsed,
@@ -302,6 +342,7 @@ def main(argv: list[str] | None = None) -> int:
     draw(results, out / "histograms.png")
     if stiffness_gpa is not None:
         draw_stiffness(trials, results, missed, out / "stiffness.png")
+    draw_friction(trials, results, out / "friction.png")
     for law in laws:
         s = summary[law]
         lo, hi = s["success_ci95"]
@@ -313,6 +354,10 @@ def main(argv: list[str] | None = None) -> int:
         for name, g in s["goals"].items():
             print(f"    {'met    ' if g['met'] else 'NOT met'} {name}: {g['measured']} "
                   f"(target {g['target']})")  # fmt: skip
+        if (mu := s["friction_estimate"]) is not None:
+            print(f"    friction in the lever measured on {mu['measured']}/{mu['trials']}: "
+                  f"|error| median {mu['abs_error_median']:.3f}, p95 "
+                  f"{mu['abs_error_p95']:.3f}")  # fmt: skip
         for f in s["failures"][:10]:
             print(f"    failed trial {f['trial']} (seed {f['seed']}, noise seed "
                   f"{f['noise_seed']}): {f['why']}; k {f['stiffness']:.3g} Pa, "

@@ -221,29 +221,38 @@ def markdown(summary: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def contact_estimate(bag: Bag, t0: float) -> tuple[np.ndarray, np.ndarray] | None:
-    """The robust law's identification (``fbcc/contact_estimate``): times [s from t0] and rows
-    in ``identification.ESTIMATE_FIELDS`` order; None when the bag has none."""
-    from fbcc_ros.ros.cdr import decode_array
+def contact_estimate(bag: Bag, t0: float) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+    """The robust law's identification (``fbcc/contact_estimate``): times [s from t0] and each
+    field's values, named by the messages' layout (a bag recorded before a field existed lacks
+    it; an unlabelled one is read in ``identification.ESTIMATE_FIELDS`` order); None when the
+    bag has none."""
+    from fbcc_ros.core.control.identification import ESTIMATE_FIELDS
+    from fbcc_ros.ros.cdr import decode_labelled_array
 
     if not bag.counts.get("/fbcc/contact_estimate"):
         return None
-    rows = np.array([decode_array(m.data) for m in bag.of("/fbcc/contact_estimate")])
-    return rows[:, 0] - t0, rows[:, 1:]
+    messages = [decode_labelled_array(m.data) for m in bag.of("/fbcc/contact_estimate")]
+    labels = messages[0][0]
+    names = labels[0].split() if labels else ["stamp", *ESTIMATE_FIELDS]
+    if any(len(data) != len(names) for _, data in messages):
+        raise InputError("/fbcc/contact_estimate", f"{len(names)} fields in its layout",
+                         "messages with one value per field")  # fmt: skip
+    columns = dict(zip(names, np.array([data for _, data in messages]).T, strict=True))
+    return columns.pop("stamp") - t0, columns
 
 
-def draw_estimate(t: np.ndarray, rows: np.ndarray, path: Path) -> Path:
-    """The identified stiffness of the four rows (log), the friction bound, the guard's trips."""
-    from fbcc_ros.core.control.identification import ESTIMATE_FIELDS
-
-    col = {name: i for i, name in enumerate(ESTIMATE_FIELDS)}
+def draw_estimate(t: np.ndarray, est: dict[str, np.ndarray], path: Path) -> Path:
+    """The identified stiffness of the four rows (log), the friction bound and the lever's
+    friction, the guard's trips."""
     fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
     for row, unit in (("dx", "N/m"), ("dy", "N/m")):
-        a1.semilogy(t, rows[:, col[f"k_{row}"]], label=f"k {row} [{unit}]")
+        a1.semilogy(t, est[f"k_{row}"], label=f"k {row} [{unit}]")
     for row in ("theta_x", "theta_y"):
-        a2.semilogy(t, rows[:, col[f"k_{row}"]], label=f"k {row} [N/rad]")
-    a3.plot(t, rows[:, col["friction"]], label="friction (upper bound)")
-    a3.step(t, rows[:, col["guard_trips"]] / 10.0, where="post", label="guard trips / 10")
+        a2.semilogy(t, est[f"k_{row}"], label=f"k {row} [N/rad]")
+    a3.plot(t, est["friction"], label="friction (upper bound)")
+    if "lever_friction" in est:
+        a3.plot(t, est["lever_friction"], label="friction in the lever (eq. 24)")
+    a3.step(t, est["guard_trips"] / 10.0, where="post", label="guard trips / 10")
     a3.set(xlabel="t [s]")
     for ax in (a1, a2, a3):
         ax.grid(alpha=0.3, which="both")
@@ -281,11 +290,8 @@ def report(bag_path: Path, out: Path | None, scenario: Path | None) -> dict[str,
             "agreement_with_truth": report_states.agreement(states)}  # fmt: skip
     estimate = contact_estimate(bag, s.t0)
     if estimate is not None:
-        from fbcc_ros.core.control.identification import ESTIMATE_FIELDS
-
         draw_estimate(*estimate, out / "estimate.png")
-        summary["contact_estimate"] = dict(zip(ESTIMATE_FIELDS, estimate[1][-1].tolist(),
-                                               strict=True))  # fmt: skip
+        summary["contact_estimate"] = {k: float(v[-1]) for k, v in estimate[1].items()}
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     (out / "summary.md").write_text(markdown(summary))
     summary["out"] = str(out)

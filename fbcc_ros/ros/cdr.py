@@ -283,15 +283,21 @@ def encode_array(data: Sequence[float], dims: Sequence[tuple[str, int, int]] = (
 
 
 @_decoding("std_msgs/Float64MultiArray")
-def decode_array(data: bytes) -> tuple[float, ...]:
-    """The data (the layout is read past)."""
+def decode_labelled_array(data: bytes) -> tuple[tuple[str, ...], tuple[float, ...]]:
+    """The layout's labels (one per dimension) and the data."""
     reader = _Reader(data, "std_msgs/Float64MultiArray")
+    labels = []
     for _ in range(reader.uint32()):
-        reader.string()
+        labels.append(reader.string())
         reader.uint32()  # size
         reader.uint32()  # stride
     reader.uint32()  # data_offset
-    return reader.doubles()
+    return tuple(labels), reader.doubles()
+
+
+def decode_array(data: bytes) -> tuple[float, ...]:
+    """The data (the layout is read past)."""
+    return decode_labelled_array(data)[1]
 
 
 # --- std_msgs/String (the phase, the contact state, the kinematics status in a bag)

@@ -63,6 +63,41 @@ def test_the_report_of_a_recorded_session(tmp_path: Path, capsys) -> None:
     assert said in text
 
 
+def _estimate_bag(folder: Path, rows: list[list[float]], layout: list[tuple[str, int, int]]):
+    from fbcc_ros.bag.writer import BagWriter
+    from fbcc_ros.ros.cdr import encode_array
+
+    with BagWriter(folder) as writer:
+        writer.add_topic("/fbcc/contact_estimate", "std_msgs/msg/Float64MultiArray", [])
+        for row in rows:
+            writer.write("/fbcc/contact_estimate", encode_array(row, layout), int(row[0] * 1e9))
+    return read_bag(folder)
+
+
+def test_the_estimate_is_read_by_the_labels_it_was_recorded_with(tmp_path: Path) -> None:
+    """The controller labels fbcc/contact_estimate's one dimension with its fields; the report
+    names the columns by that label, so a bag recorded before a field existed (the committed
+    one has no lever_friction) reads right, and a label that does not match the data is
+    refused, not read shifted."""
+    from fbcc_ros.core.control.identification import ESTIMATE_FIELDS, ContactEstimate
+    from fbcc_ros.core.errors import InputError
+    from fbcc_ros.nodes.fbcc_controller import ESTIMATE_LAYOUT
+
+    est = ContactEstimate(np.arange(1.0, 5.0), np.zeros(4), np.full(4, 5.0), np.full(4, 6.0),
+                          0.41, 0.27, True)  # fmt: skip
+    rows = [[t, *est.as_row(trips=2)] for t in (10.0, 10.5)]
+    t, cols = report.contact_estimate(_estimate_bag(tmp_path / "now", rows, ESTIMATE_LAYOUT), 10.0)
+    assert t.tolist() == [0.0, 0.5] and list(cols) == list(ESTIMATE_FIELDS)
+    assert cols["lever_friction"].tolist() == [0.27, 0.27] and cols["friction"][0] == 0.41
+    assert cols["k_theta_y"][0] == 4.0 and cols["guard_trips"][0] == 2.0
+    _, old = report.contact_estimate(read_bag(BAG), 0.0)
+    assert "lever_friction" not in old and set(old) == set(ESTIMATE_FIELDS) - {"lever_friction"}
+    assert set(np.unique(old["in_contact"])) <= {0.0, 1.0} and (old["guard_trips"] >= 0).all()
+    short = [(ESTIMATE_LAYOUT[0][0].rsplit(" ", 1)[0], len(rows[0]), len(rows[0]))]
+    with pytest.raises(InputError, match="contact_estimate"):
+        report.contact_estimate(_estimate_bag(tmp_path / "shifted", rows, short), 10.0)
+
+
 def test_a_cut_bag_is_reported_as_truncated(tmp_path: Path, capfd) -> None:
     cut = tmp_path / "cut"
     cut.mkdir()

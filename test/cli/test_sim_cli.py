@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from fbcc_ros.cli import montecarlo, sim
@@ -109,6 +111,31 @@ def test_montecarlo_draws_materials_lists_failures_and_judges_the_goals(tmp_path
             assert float(row["stiffness"]) == pytest.approx(fail["stiffness"], rel=1e-3)
             assert fail["seed"] == 4 and fail["why"]
     assert (tmp_path / "stiffness.png").stat().st_size > 10_000
+
+
+def test_montecarlo_reports_the_friction_the_lever_measured(tmp_path: Path) -> None:
+    """The robust law's lever (eq. 24) measures each part's friction on one contact sliding in
+    (identification): trials.csv carries it (NaN where it measured none, and for admittance),
+    the summary its error against the part's μ, friction.png draws it. The ratio it reads is an
+    upper bound on μ (Coulomb: Fz = μ N, |F_lat| <= N), so it never reads far below μ."""
+    args = [str(SCENARIOS / "robust_clearance.yaml"), "--out", str(tmp_path), "--trials", "24",
+            "--workers", "1", "--laws", "fbcc", "admittance", "--stiffness-gpa", "0.1", "100",
+            "--friction", "0.1", "0.5", "--seed", "5"]  # fmt: skip
+    assert montecarlo.main(args) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    with (tmp_path / "trials.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert all(math.isnan(float(r["friction_estimate"])) for r in rows if r["law"] != "fbcc")
+    assert summary["admittance"]["friction_estimate"] is None
+    fbcc = [r for r in rows if r["law"] == "fbcc"]
+    err = np.array([float(r["friction_estimate"]) - float(r["friction"]) for r in fbcc
+                    if not math.isnan(float(r["friction_estimate"]))])  # fmt: skip
+    said = summary["fbcc"]["friction_estimate"]
+    assert said["measured"] == len(err) > 0 and said["trials"] == 24
+    assert said["abs_error_max"] == pytest.approx(np.abs(err).max(), abs=1e-3)
+    assert said["error_median"] == pytest.approx(np.median(err), abs=1e-3)
+    assert err.min() >= -0.03 and said["abs_error_median"] < 0.06, err
+    assert (tmp_path / "friction.png").stat().st_size > 10_000
 
 
 def test_montecarlo_replays_a_trial_of_a_study(

@@ -79,6 +79,8 @@ def test_float64_array_both_ways(data, dims):
     assert msg.layout.data_offset == 0
     msg.layout.data_offset = 3  # read past, whatever it holds
     assert cdr.decode_array(serialize_message(msg)) == tuple(data)
+    labels, values = cdr.decode_labelled_array(serialize_message(msg))
+    assert labels == tuple(label for label, _, _ in dims) and values == tuple(data)
 
 
 @given(text)

@@ -117,7 +117,8 @@ _ROW_NAMES = ("dx", "dy", "theta_x", "theta_y")
 #: The estimate as a flat row (the controller's ``fbcc/contact_estimate`` topic, after a stamp).
 ESTIMATE_FIELDS = (
     *(f"k_{r}" for r in _ROW_NAMES), *(f"coupling_{r}" for r in _ROW_NAMES),
-    *(f"depth_gain_{r}" for r in _ROW_NAMES), "friction", "in_contact", "guard_trips",
+    *(f"depth_gain_{r}" for r in _ROW_NAMES), "friction", "lever_friction", "in_contact",
+    "guard_trips",
 )  # fmt: skip
 
 
@@ -136,6 +137,8 @@ class ContactEstimate:
             d u_theta_x/d dy, d u_theta_y/d dx [N/m].
         depth_gain: d u_j / d l of each row [N/m].
         friction: Estimated friction coefficient (an upper bound; see the module doc).
+        lever_friction: The friction coefficient eq. 24's lever uses now: the lower envelope of
+            the one-contact samples (the lever's friction, module doc); the nominal μ until one.
         in_contact: Whether the last sample was counted as contact.
     """
 
@@ -144,13 +147,14 @@ class ContactEstimate:
     coupling: FloatArray
     depth_gain: FloatArray
     friction: float
+    lever_friction: float
     in_contact: bool
 
     def as_row(self, trips: int = 0) -> list[float]:
         """The values in :data:`ESTIMATE_FIELDS` order (after the stamp); ``trips`` the
         oscillation guard's trips so far."""
         return [*self.stiffness, *self.coupling, *self.depth_gain, self.friction,
-                float(self.in_contact), float(trips)]  # fmt: skip
+                self.lever_friction, float(self.in_contact), float(trips)]  # fmt: skip
 
     def as_dict(self) -> dict[str, object]:
         """JSON-ready."""
@@ -160,6 +164,7 @@ class ContactEstimate:
             "coupling": self.coupling.tolist(),
             "depth_gain": self.depth_gain.tolist(),
             "friction": self.friction,
+            "lever_friction": self.lever_friction,
             "in_contact": self.in_contact,
         }
 
@@ -279,7 +284,8 @@ def used_matrix(s: FloatArray, plane: int, max_coupling: float, out: FloatArray)
     return fitted
 
 
-def estimate_of(state: FloatArray, friction: float, in_contact: bool) -> ContactEstimate:
+def estimate_of(state: FloatArray, friction: float, lever_friction: float,
+                in_contact: bool) -> ContactEstimate:  # fmt: skip
     """The :class:`ContactEstimate` of one trial's identifier state (2, N_STATE)."""
     used, raw, coupling, depth = (np.zeros(4) for _ in range(4))
     for plane, (r_d, r_t) in enumerate(PLANES):
@@ -291,7 +297,8 @@ def estimate_of(state: FloatArray, friction: float, in_contact: bool) -> Contact
         coupling[r_t] = s[_THETA + N_REG] / ROW_SCALE[r_d]
         depth[r_d] = s[_THETA + 2] / DEPTH_SCALE
         depth[r_t] = s[_THETA + N_REG + 2] / DEPTH_SCALE
-    return ContactEstimate(used, raw, coupling, depth, float(friction), bool(in_contact))
+    return ContactEstimate(used, raw, coupling, depth, float(friction), float(lever_friction),
+                           bool(in_contact))  # fmt: skip
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
@@ -326,6 +333,13 @@ def one_contact_friction(w: FloatArray, depth: float, wall: float, radius: float
     if abs(lever - mu * radius - wall) > depth / 2.0 + LEVER_MARGIN:
         return -1.0
     return mu
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
+def lever_friction(s: FloatArray, nominal: float) -> float:
+    """The friction the lever uses from its state s (N_LEVER,): the estimate once there is one,
+    else the ``nominal`` μ."""
+    return s[0] if s[0] > 0.0 else nominal
 
 
 @numba.njit(cache=True)  # type: ignore[misc]

@@ -140,6 +140,12 @@ class ComplianceLaw:
         """Oscillation-guard trips per trial: Table I's laws have no guard."""
         return np.zeros(len(self._command))
 
+    @property
+    def lever_frictions(self) -> FloatArray:
+        """The friction eq. 24's lever measured, per trial: Table I's laws measure none
+        (NaN)."""
+        return np.full(len(self._command), np.nan)
+
     def prepare(self, dt: float) -> None:
         """Refuse a period too long for the gains, and discretise the filter for it now (the
         matrix exponentials cost ~1.5 ms: not in the loop)."""

@@ -237,7 +237,9 @@ class RobustFbcc:
     def estimate(self, trial: int = 0) -> ident.ContactEstimate:
         """The contact identification of one trial now."""
         m = self._main[trial]
-        return ident.estimate_of(self._ident[trial], m[rk.C_MU], m[rk.C_CONTACT] > 0)
+        lever = ident.lever_friction(m[rk.C_LEVER : rk.C_LEVER + ident.N_LEVER],
+                                     self.nominal.friction)  # fmt: skip
+        return ident.estimate_of(self._ident[trial], m[rk.C_MU], lever, m[rk.C_CONTACT] > 0)
 
     def adjustments(self) -> FloatArray:
         """The integrators ``∫ ω_c Ĵ⁻¹ dz(ū) dt`` of every trial, (N, 5) in the law's axis
@@ -261,6 +263,13 @@ class RobustFbcc:
     def trips(self) -> FloatArray:
         """Guard trips per trial."""
         return self._main[:, rk.C_TRIPS].copy()
+
+    @property
+    def lever_frictions(self) -> FloatArray:
+        """The friction eq. 24's lever measured, per trial; NaN where it has not (it uses the
+        nominal μ there)."""
+        lever = self._main[:, rk.C_LEVER]  # 0 until measured
+        return np.where(lever > 0.0, lever, np.nan)
 
     def _coefficients(self, dt: float) -> FloatArray:
         c = self._coeffs.get(dt)

@@ -178,7 +178,7 @@ def robust_rows(
             m[C_STOPPED] = 1.0
         depth = max(x[i, 2], 0.0)
         # eq. 24's lever with the part's friction once known: base + (μ - μ_nominal) R
-        mu_part = m[C_LEVER] if m[C_LEVER] > 0.0 else prm[P_MU0]
+        mu_part = ident.lever_friction(m[C_LEVER : C_LEVER + ident.N_LEVER], prm[P_MU0])
         base = prm[P_BASE] + (mu_part - prm[P_MU0]) * prm[P_HOLE_RADIUS]
         direct_row(w[i], depth, base, prm[P_PER_DEPTH], prm[P_HOLE_DEPTH],
                    prm[P_HOLE_RADIUS], u)  # u = A(l) F, eq. (28)  # fmt: skip

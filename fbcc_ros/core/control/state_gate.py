@@ -97,6 +97,10 @@ class StateGatedLaw:
     def trips(self) -> FloatArray:
         return self.law.trips
 
+    @property
+    def lever_frictions(self) -> FloatArray:
+        return self.law.lever_frictions
+
     def reset(self, features: ArrayLike) -> None:
         self.law.reset(features)
         n = len(np.atleast_2d(features))

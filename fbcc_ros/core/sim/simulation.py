@@ -49,6 +49,10 @@ Metrics (summary keys of DESIGN §4), per trial:
     (dx, dy, l, theta_x, theta_y) at the end, true values.
 ``state_sequence``
     the contact states (Fig. 4) the features went through, ``"XOZ/YOZ"``, repeats collapsed.
+``friction_estimate`` (extra)
+    the friction the robust law's lever (eq. 24) measured by the end
+    (:mod:`fbcc_ros.core.control.identification`); NaN where it measured none (it kept the
+    nominal μ) and for Table I's laws.
 ``holder_unconverged`` (extra)
     with a compliant holder, the steps whose equilibrium the solver left unconverged (used as
     its best point: :mod:`fbcc_ros.core.sim.holder_solver`); 0 with a rigid one.
@@ -111,11 +115,13 @@ class Outcome:
     final_features: FloatArray
     force_limited: np.ndarray
     guard_trips: FloatArray  # the oscillation guard's trips (robust law; 0 otherwise)
+    friction_estimate: FloatArray  # the friction eq. 24's lever measured (robust law; else NaN)
     holder_unconverged: FloatArray  # steps whose holder equilibrium did not converge
 
     def summary(self, i: int = 0) -> dict[str, Any]:
         """The DESIGN §4 summary of trial i (without the state sequence), JSON-ready."""
         t_ins = float(self.insertion_time[i])
+        mu = float(self.friction_estimate[i])
         return {
             "success": bool(self.success[i]),
             "insertion_time": None if math.isnan(t_ins) else t_ins,
@@ -130,6 +136,7 @@ class Outcome:
             "force_limited": bool(self.force_limited[i]),
             "peak_force": float(self.peak_force[i]),
             "guard_trips": int(self.guard_trips[i]),
+            "friction_estimate": None if math.isnan(mu) else mu,
             "holder_unconverged": int(self.holder_unconverged[i]),
         }
 
@@ -174,7 +181,8 @@ class _Metrics:
         self.assembled_at_end = assembled[-1]
 
     def outcome(self, force_limited: np.ndarray, trips: FloatArray | None = None,
-                unconverged: FloatArray | None = None) -> Outcome:  # fmt: skip
+                unconverged: FloatArray | None = None,
+                lever: FloatArray | None = None) -> Outcome:  # fmt: skip
         n_tail = self.steps - self.resid_from
         sign0 = np.sign(self.theta0)
         # past zero, opposite to the initial sign; any excursion when the initial tilt is zero
@@ -195,6 +203,7 @@ class _Metrics:
             final_features=self.final,
             force_limited=force_limited,
             guard_trips=np.zeros(len(self.final)) if trips is None else trips,
+            friction_estimate=np.full(len(self.final), np.nan) if lever is None else lever,
             holder_unconverged=np.zeros(len(self.final)) if unconverged is None else unconverged,
         )
 
@@ -276,7 +285,8 @@ def simulate(
         if record:
             chunks.append((t, buf_x[:kk].copy(), buf_w[:kk].copy(), buf_m[:kk].copy(),
                            buf_c[:kk].copy(), buf_p[:kk].copy()))  # fmt: skip
-    outcome = metrics.outcome(law.stopped.copy(), law.trips.copy(), unconverged)
+    outcome = metrics.outcome(law.stopped.copy(), law.trips.copy(), unconverged,
+                              law.lever_frictions)  # fmt: skip
     if not record:
         return outcome, None
     traj = Trajectory(*(np.concatenate([c[i] for c in chunks]) for i in range(6)))

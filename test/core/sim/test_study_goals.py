@@ -28,7 +28,7 @@ def test_a_study_success_meets_every_per_trial_goal() -> None:
         tilt_overshoot=np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.004]),
         tilt_misadjustment=np.zeros(n), final_features=np.zeros((n, 5)),
         force_limited=np.array([0, 0, 0, 0, 1, 0], bool),
-        guard_trips=np.zeros(n), holder_unconverged=np.zeros(n),
+        guard_trips=np.zeros(n), holder_unconverged=np.zeros(n), friction_estimate=np.zeros(n),
     )  # fmt: skip
     missed = study_goals.missed_goals(outcome)
     assert missed[0] == []
