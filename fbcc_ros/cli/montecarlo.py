@@ -158,13 +158,13 @@ def friction_accuracy(outcome: Outcome, trials: Trials) -> dict[str, Any] | None
             "abs_error_max": float(np.abs(err).max())}  # fmt: skip
 
 
-def draw_friction(trials: Trials, results: dict[str, Outcome], path: Path) -> bool:
+def draw_friction(trials: Trials, results: dict[str, Outcome], path: Path) -> None:
     """The friction the lever measured against each part's μ, per law that measures one;
-    False (nothing drawn) when none did."""
+    nothing is drawn when none did."""
     mu = np.array([g.friction for g in trials.geometries])
     measuring = {law: o for law, o in results.items() if np.isfinite(o.friction_estimate).any()}
     if not measuring:
-        return False
+        return
     fig, ax = plt.subplots(figsize=(5.5, 5))
     for law, o in measuring.items():
         ok = np.isfinite(o.friction_estimate)
@@ -177,7 +177,6 @@ def draw_friction(trials: Trials, results: dict[str, Outcome], path: Path) -> bo
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
-    return True
 
 
 def draw(results: dict[str, Outcome], path: Path) -> None:
