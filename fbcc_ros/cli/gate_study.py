@@ -26,7 +26,8 @@ STIFFNESS = {"clearance": (1.84e8, 1e10, 5e10), "interference": (1.84e8, 1e9)}
 #: Columns of the table: (key, heading, format).
 COLUMNS = (("success", "success", "{:.3f}"), ("force_limited", "force-limited", "{}"),
            ("time_median", "time median [s]", "{:.2f}"), ("time_max", "max [s]", "{:.2f}"),
-           ("over_3s", "> 3 s", "{}"), ("peak_fz_median", "peak Fz median [N]", "{:.1f}"),
+           ("over_time_goal", "> time goal", "{}"),
+           ("peak_fz_median", "peak Fz median [N]", "{:.1f}"),
            ("misadjustment_max_deg", "misadjustment max [°]", "{:.2f}"),
            ("tilt_overshoot_max_deg", "overshoot max [°]", "{:.2f}"),
            ("residual_max", "residual max [N]", "{:.2f}"),

@@ -62,7 +62,7 @@ from fbcc_ros.core.sim.montecarlo import (
     wilson_interval,
 )
 from fbcc_ros.core.sim.simulation import Outcome
-from fbcc_ros.core.sim.study_goals import GOAL_TIME, failures, goals, missed_goals
+from fbcc_ros.core.sim.study_goals import failures, goals, missed_goals, time_goal
 
 #: Metrics summarised by percentiles: (name, scale to the printed unit, unit).
 _METRICS = (
@@ -196,10 +196,12 @@ def draw(results: dict[str, Outcome], path: Path) -> None:
 
 
 def draw_stiffness(trials: Trials, results: dict[str, Outcome],
-                   missed_by_law: dict[str, list[list[str]]], path: Path) -> None:
+                   missed_by_law: dict[str, list[list[str]]], deadline: float,
+                   path: Path) -> None:  # fmt: skip
     """Success rate per ninth of the k range (log), and every trial's peak Fz and insertion
-    time against k, with the time goal; a trial that missed a goal (:func:`missed_goals`) is
-    ringed in the time panel, so the study's tail is seen where it lies."""
+    time against k, with the time goal ``deadline`` [s]; a trial that missed a goal
+    (:func:`missed_goals`) is ringed in the time panel, so the study's tail is seen where it
+    lies."""
     k = np.array([g.stiffness for g in trials.geometries])
     edges = np.geomspace(k.min(), k.max() * (1 + 1e-9), 10)
     fig, (a1, a2, a3) = plt.subplots(1, 3, figsize=(16, 4))
@@ -216,7 +218,7 @@ def draw_stiffness(trials: Trials, results: dict[str, Outcome],
         late = missed & o.success
         a3.semilogx(k[late], o.insertion_time[late], "o", mfc="none", ms=7,
                     color=dots.get_color(), label=f"{law}: missed a goal ({int(missed.sum())})")
-    a3.axhline(GOAL_TIME, color="k", lw=0.8, ls="--", label=f"goal: {GOAL_TIME:g} s")
+    a3.axhline(deadline, color="k", lw=0.8, ls="--", label=f"goal: {deadline:g} s")
     a1.set(xlabel="contact stiffness k [Pa]", ylabel="assembled [%]", ylim=(0, 101))
     a2.set(xlabel="contact stiffness k [Pa]", ylabel="peak Fz [N]")
     a3.set(xlabel="contact stiffness k [Pa]", ylabel="insertion time [s]")
@@ -322,10 +324,11 @@ def main(argv: list[str] | None = None) -> int:
     elapsed = time.perf_counter() - start
     summary: dict[str, Any] = {}
     missed: dict[str, list[list[str]]] = {}
+    deadline = time_goal(sc.insertion)
     for law, o in results.items():
         summary[law] = summarise(o)
-        missed[law] = missed_goals(o)
-        summary[law]["goals"] = goals(o, trials, missed[law])
+        missed[law] = missed_goals(o, deadline)
+        summary[law]["goals"] = goals(o, trials, missed[law], deadline)
         summary[law]["failures"] = failures(o, trials, missed[law], args.seed, sc.seed, BATCH)
         summary[law]["friction_estimate"] = friction_accuracy(o, trials)
     summary["_run"] = {
@@ -340,7 +343,7 @@ def main(argv: list[str] | None = None) -> int:
     write_trials(trials, results, out / "trials.csv")
     draw(results, out / "histograms.png")
     if stiffness_gpa is not None:
-        draw_stiffness(trials, results, missed, out / "stiffness.png")
+        draw_stiffness(trials, results, missed, deadline, out / "stiffness.png")
     draw_friction(trials, results, out / "friction.png")
     for law in laws:
         s = summary[law]

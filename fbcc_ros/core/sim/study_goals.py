@@ -5,6 +5,11 @@ and every trial that missed one with what reproduces it (``fbcc-montecarlo``'s `
 A trial of the study succeeds when it meets every per-trial goal (:func:`missed_goals`); the
 study asks that share to be >= ``GOAL_SUCCESS``. The overshoot, residual and time goals are
 also judged on every trial (``docs/reproduction.md`` says why), the peak Fz on the medians.
+
+The issue states the time goal for its study, 3 s at 5 mm/s over 10 mm: the travel (2 s) and
+one second for the entry and the alignment. :func:`time_goal` keeps that second for any other
+insertion (a 15 mm hole at 5 mm/s: 4 s), so a study of another part is judged on its own
+travel rather than on the 10 mm one.
 """
 
 from __future__ import annotations
@@ -14,21 +19,29 @@ from typing import Any
 
 import numpy as np
 
+from fbcc_ros.core.control.laws import Insertion
 from fbcc_ros.core.sim.montecarlo import Trials, wilson_interval
 from fbcc_ros.core.sim.scenario import DEFAULT_TOLERANCE
 from fbcc_ros.core.sim.simulation import Outcome
 
 GOAL_SUCCESS = 0.999
 GOAL_RESIDUAL = 0.5  # [N]
-GOAL_TIME = 3.0  # [s] from the start, 10 mm at 5 mm/s
+GOAL_TIME_ALLOWANCE = 1.0  # [s] beyond the travel depth / speed (3 s at 5 mm/s over 10 mm)
 GOAL_PEAK_FZ = 15.0  # [N] clearance: median peak; interference: median peak above push-in
 GOAL_OVERSHOOT = DEFAULT_TOLERANCE["tilt"]  # [rad] a tilt past zero beyond the success tolerance
 
 
-def missed_goals(outcome: Outcome) -> list[list[str]]:
+def time_goal(insertion: Insertion) -> float:
+    """The longest an assembly may take from the start [s]: the travel at the insertion's speed
+    and ``GOAL_TIME_ALLOWANCE`` (the issue's 3 s for 10 mm at 5 mm/s)."""
+    return insertion.depth / insertion.speed + GOAL_TIME_ALLOWANCE
+
+
+def missed_goals(outcome: Outcome, deadline: float) -> list[list[str]]:
     """Per trial, the per-trial goals it missed (empty: it met them all): assembled within the
-    force limit, by ``GOAL_TIME``, with at most ``GOAL_RESIDUAL`` of lateral force left and no
-    tilt overshoot. A trial that missed any is a failed trial of the study, listed."""
+    force limit, by ``deadline`` [s] (:func:`time_goal`), with at most ``GOAL_RESIDUAL`` of
+    lateral force left and no tilt overshoot. A trial that missed any is a failed trial of the
+    study, listed."""
     out = []
     for i in range(len(outcome.success)):
         why = []
@@ -37,8 +50,8 @@ def missed_goals(outcome: Outcome) -> list[list[str]]:
         elif not outcome.success[i]:
             why.append("not assembled at the end")
         else:
-            if outcome.insertion_time[i] > GOAL_TIME:
-                why.append(f"assembled in {outcome.insertion_time[i]:.2f} s > {GOAL_TIME:g} s")
+            if outcome.insertion_time[i] > deadline:
+                why.append(f"assembled in {outcome.insertion_time[i]:.2f} s > {deadline:g} s")
             if outcome.residual_force[i] > GOAL_RESIDUAL:
                 why.append(f"residual {outcome.residual_force[i]:.2f} N > {GOAL_RESIDUAL:g} N")
         if outcome.tilt_overshoot[i] > GOAL_OVERSHOOT:
@@ -47,13 +60,14 @@ def missed_goals(outcome: Outcome) -> list[list[str]]:
     return out
 
 
-def goals(outcome: Outcome, trials: Trials, missed: list[list[str]]) -> dict[str, Any]:
+def goals(outcome: Outcome, trials: Trials, missed: list[list[str]],
+          deadline: float) -> dict[str, Any]:  # fmt: skip
     """The study's goals, each with the measured figure and whether it holds.
 
     ``success`` is the share of trials that met every per-trial goal (``missed``, from
-    :func:`missed_goals`).
+    :func:`missed_goals` with the same time ``deadline`` [s]).
     The overshoot, residual and time rows judge every trial (every assembled one), the reading
-    the project holds (``docs/reproduction.md``): a trial over 3 s fails the time goal even
+    the project holds (``docs/reproduction.md``): a trial over the time goal fails it even
     when 99.9 % meet every goal. The peak Fz rows judge the medians."""
     push_in = np.array([g.push_in_force() for g in trials.geometries])
     ok = outcome.success
@@ -66,7 +80,7 @@ def goals(outcome: Outcome, trials: Trials, missed: list[list[str]]) -> dict[str
         "success": {"measured": float(met.mean()), "ci95": [lo, hi],
                     "failed": int((~met).sum()),
                     "target": f">= {GOAL_SUCCESS} of trials assembled within the force limit, "
-                              f"by {GOAL_TIME:g} s, residual <= {GOAL_RESIDUAL:g} N, "
+                              f"by {deadline:g} s, residual <= {GOAL_RESIDUAL:g} N, "
                               f"no tilt overshoot",
                     "met": float(met.mean()) >= GOAL_SUCCESS},
         "tilt_overshoot_deg": {
@@ -80,9 +94,9 @@ def goals(outcome: Outcome, trials: Trials, missed: list[list[str]]) -> dict[str
             "met": bool((outcome.residual_force[ok] <= GOAL_RESIDUAL).all())},
         "insertion_time_s": {
             "measured": float(t.max()) if len(t) else None,
-            "over_target": int((t > GOAL_TIME).sum()),
-            "target": f"<= {GOAL_TIME} in every assembled trial",
-            "met": bool((t <= GOAL_TIME).all())},
+            "over_target": int((t > deadline).sum()),
+            "target": f"<= {deadline:g} in every assembled trial",
+            "met": bool((t <= deadline).all())},
     }  # fmt: skip
     for label, mask, value in (("peak_fz_clearance_median_N", ~interference, outcome.peak_fz),
                                ("peak_fz_over_push_in_median_N", interference, excess)):
