@@ -91,15 +91,17 @@ FRICTION_DRIFT = 0.05
 #: The lever's friction (module doc): samples count while the depth rises at this share of the
 #: insertion speed or more (sliding: Fz = mu |F_lat|), past this depth [m] (off the top face),
 #: with a lateral force over this [N]; a run of LEVER_SAMPLES such samples, low-passed over
-#: LEVER_FILTER [s], gives a value; a contact height more than LEVER_MARGIN [m] beyond the
-#: engaged wall is not one contact (the pressure spread and a tilt move it by tenths of mm, a
-#: wedge by millimetres).
+#: LEVER_FILTER [s], gives a value; a contact height more than LEVER_MARGIN [m], or
+#: LEVER_MARGIN_PER_RADIUS times R if more, beyond the engaged wall is not one contact (the
+#: pressure spread and a tilt move it by tenths of mm, a wedge by millimetres; the ratio's
+#: reading over μ on an arc moves it in proportion to R: a 10 mm peg read 0.4 mm off).
 LEVER_SLIDE = 0.3
 LEVER_MIN_DEPTH = 1e-4
 LEVER_MIN_FORCE = 2.0
 LEVER_SAMPLES = 10
 LEVER_FILTER = 0.01
 LEVER_MARGIN = 3e-4
+LEVER_MARGIN_PER_RADIUS = 0.059  # 0.3 mm at the study's R of 5.05 mm
 LEVER_FRICTION_MIN = 0.05
 #: Columns of the lever's friction state: the estimate (0 until one), the filtered ratio, the
 #: samples of the current run.
@@ -330,7 +332,8 @@ def one_contact_friction(w: FloatArray, depth: float, wall: float, radius: float
         return -1.0
     mu = w[2] / math.sqrt(f2)
     lever = (w[4] * w[0] - w[3] * w[1]) / f2  # -Mx/Fy = My/Fx, both planes at once
-    if abs(lever - mu * radius - wall) > depth / 2.0 + LEVER_MARGIN:
+    margin = max(LEVER_MARGIN, LEVER_MARGIN_PER_RADIUS * radius)
+    if abs(lever - mu * radius - wall) > depth / 2.0 + margin:
         return -1.0
     return mu
 

@@ -39,6 +39,26 @@ def test_one_contact_reads_the_parts_friction(mu: float, depth: float) -> None:
         assert _sample(part, [dx, dy, depth, 0.0, 0.0]) == pytest.approx(mu, rel=0.05)
 
 
+def test_a_larger_peg_on_one_contact_is_read_too() -> None:
+    """On a 10 mm peg the ratio's reading over μ (the pressure's spread over an arc) moves the
+    contact height by that excess times R: a peg pressed on one side while tilted 1.9° in the
+    other plane (a draw of a 10 mm study) reads 11 % over μ and 0.43 mm off the wall, past
+    the 0.3 mm that suffices at 5 mm; the margin in proportion to R reads it."""
+    nominal = dataclasses.replace(NOMINAL, hole_radius=10.02e-3, peg_radius=10.0e-3,
+                                  hole_depth=15e-3)  # fmt: skip
+    part = dataclasses.replace(nominal, hole_radius=10.0175e-3, friction=0.425,
+                               stiffness=3e10)  # fmt: skip
+    features = np.array([-23e-6, -12.2e-6, 1.1e-4, 0.03394, 0.00614])
+    depth = features[2]
+    wall = float(nominal.boundary_lever(depth)) - nominal.friction * nominal.hole_radius
+    w = part.response(features)
+    ratio = w[2] / math.hypot(w[0], w[1])
+    lever = (w[4] * w[0] - w[3] * w[1]) / (w[0] ** 2 + w[1] ** 2)
+    assert abs(lever - ratio * nominal.hole_radius - wall) > depth / 2 + ident.LEVER_MARGIN
+    sample = ident.one_contact_friction(w, depth, wall, nominal.hole_radius)
+    assert sample == pytest.approx(0.425, rel=0.12)
+
+
 @pytest.mark.parametrize("mu", [0.11, 0.3])
 @pytest.mark.parametrize(("depth", "tilt_deg"), [(3e-4, 0.2), (5e-4, 0.5), (1e-3, 0.3)])
 def test_a_wedged_peg_is_not_read_as_friction(mu: float, depth: float, tilt_deg: float) -> None:
