@@ -33,7 +33,7 @@ def test_defaults_are_documented_values() -> None:
 def test_every_shipped_scenario_validates(path: Path) -> None:
     sc = load(path)
     assert sc.geometry.stiffness == pytest.approx(1.84e8)
-    assert sc.insertion.depth == pytest.approx(0.01)
+    assert sc.insertion.depth == pytest.approx(sc.geometry.hole_depth)
 
 
 def _with(path: tuple[str, ...], value: Any) -> dict[str, Any]:
