@@ -43,7 +43,8 @@ def test_a_larger_peg_on_one_contact_is_read_too() -> None:
     """On a 10 mm peg the ratio's reading over μ (the pressure's spread over an arc) moves the
     contact height by that excess times R: a peg pressed on one side while tilted 1.9° in the
     other plane (a draw of a 10 mm study) reads 11 % over μ and 0.43 mm off the wall, past
-    the 0.3 mm that suffices at 5 mm; the margin in proportion to R reads it."""
+    the 0.3 mm that suffices at 5 mm; the margin in proportion to R reads it, and still
+    refuses that peg's wedges."""
     nominal = dataclasses.replace(NOMINAL, hole_radius=10.02e-3, peg_radius=10.0e-3,
                                   hole_depth=15e-3)  # fmt: skip
     part = dataclasses.replace(nominal, hole_radius=10.0175e-3, friction=0.425,
@@ -57,6 +58,13 @@ def test_a_larger_peg_on_one_contact_is_read_too() -> None:
     assert abs(lever - ratio * nominal.hole_radius - wall) > depth / 2 + ident.LEVER_MARGIN
     sample = ident.one_contact_friction(w, depth, wall, nominal.hole_radius)
     assert sample == pytest.approx(0.425, rel=0.12)
+    # a wedge of that peg (0.2 µm of clearance, tilted 0.3-0.5°) is still refused
+    tight = dataclasses.replace(nominal, hole_radius=10.0002e-3, friction=0.3, stiffness=8e10)
+    for depth, tilt_deg in ((5e-4, 0.5), (1e-3, 0.3)):
+        wedge = tight.response(np.array([0.0, 0.0, depth, math.radians(tilt_deg), 0.0]))
+        assert wedge[2] / math.hypot(wedge[0], wedge[1]) > 1.5 * 0.3
+        wall = float(nominal.boundary_lever(depth)) - nominal.friction * nominal.hole_radius
+        assert ident.one_contact_friction(wedge, depth, wall, nominal.hole_radius) == -1.0
 
 
 @pytest.mark.parametrize("mu", [0.11, 0.3])
