@@ -113,6 +113,21 @@ def test_montecarlo_draws_materials_lists_failures_and_judges_the_goals(tmp_path
     assert (tmp_path / "stiffness.png").stat().st_size > 10_000
 
 
+def test_montecarlo_judges_the_time_against_the_scenarios_own_travel(tmp_path: Path) -> None:
+    """At 10 mm/s over 10 mm the time goal is the 1 s of travel and one second: 2 s, in the
+    summary's target and in what each trial is judged against."""
+    args = [str(SCENARIOS / "robust_clearance_fast.yaml"), "--out", str(tmp_path), "--trials",
+            "6", "--workers", "1", "--stiffness-gpa", "0.1", "100", "--friction", "0.1", "0.5",
+            "--seed", "2"]  # fmt: skip
+    assert montecarlo.main(args) == 0
+    goal = json.loads((tmp_path / "summary.json").read_text())["fbcc"]["goals"]
+    assert goal["insertion_time_s"]["target"] == "<= 2 in every assembled trial"
+    assert "by 2 s" in goal["success"]["target"]
+    with (tmp_path / "trials.csv").open() as f:
+        times = [float(r["insertion_time"]) for r in csv.DictReader(f)]
+    assert goal["insertion_time_s"]["over_target"] == sum(t > 2.0 for t in times)
+
+
 def test_montecarlo_reports_the_friction_the_lever_measured(tmp_path: Path) -> None:
     """The robust law's lever (eq. 24) measures each part's friction on one contact sliding in
     (identification): trials.csv carries it (NaN where it measured none, and for admittance),
