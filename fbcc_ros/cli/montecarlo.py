@@ -354,8 +354,9 @@ def main(argv: list[str] | None = None) -> int:
               f"(95 % CI {lo:.1%}-{hi:.1%}); peak Fz median {pf['median']:.1f} N, "
               f"max {pf['max']:.1f} N; residual force median {rf['median']:.2f} N")  # fmt: skip
         for name, g in s["goals"].items():
+            share = f" on {g['share']:.3%} of trials" if "share" in g else ""
             print(f"    {'met    ' if g['met'] else 'NOT met'} {name}: {g['measured']} "
-                  f"(target {g['target']})")  # fmt: skip
+                  f"(target {g['target']}){share}")  # fmt: skip
         if (mu := s["friction_estimate"]) is not None:
             print(f"    friction in the lever measured on {mu['measured']}/{mu['trials']}: "
                   f"|error| median {mu['abs_error_median']:.3f}, p95 "

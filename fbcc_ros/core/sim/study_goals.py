@@ -3,8 +3,13 @@ steel"), judged on a Monte Carlo's outcome: each goal with the measured figure b
 and every trial that missed one with what reproduces it (``fbcc-montecarlo``'s ``summary.json``).
 
 A trial of the study succeeds when it meets every per-trial goal (:func:`missed_goals`); the
-study asks that share to be >= ``GOAL_SUCCESS``. The overshoot, residual and time goals are
-also judged on every trial (``docs/reproduction.md`` says why), the peak Fz on the medians.
+study asks that share to be >= ``GOAL_SUCCESS``. The issue says "never" of the tilt overshoot
+alone, so that goal is judged on every trial. The residual and time goals are per-trial goals:
+a trial over either is a failed trial of the study, counted against the success share and
+listed, and each row gives the share of trials that met it, its largest figure and how many
+missed it. Read as a bound on every trial instead, the time goal would fail a study over one
+part assembled in 3.01 s while a part not assembled at all counts only against the 99.9 %: a
+slow assembly would weigh more than none. The peak Fz goals are judged on the medians.
 
 The issue states the time goal for its study, 3 s at 5 mm/s over 10 mm: the travel (2 s) and
 one second for the entry and the alignment. :func:`time_goal` keeps that second for any other
@@ -65,13 +70,12 @@ def goals(outcome: Outcome, trials: Trials, missed: list[list[str]],
     """The study's goals, each with the measured figure and whether it holds.
 
     ``success`` is the share of trials that met every per-trial goal (``missed``, from
-    :func:`missed_goals` with the same time ``deadline`` [s]).
-    The overshoot, residual and time rows judge every trial (every assembled one), the reading
-    the project holds (``docs/reproduction.md``): a trial over the time goal fails it even
-    when 99.9 % meet every goal. The peak Fz rows judge the medians."""
+    :func:`missed_goals` with the same time ``deadline`` [s]). The overshoot row judges every
+    trial; the residual and time rows the share of trials assembled within them (module doc),
+    with the largest figure of an assembled trial and how many missed; the peak Fz rows the
+    medians."""
     push_in = np.array([g.push_in_force() for g in trials.geometries])
     ok = outcome.success
-    t = outcome.insertion_time[ok]
     met = np.array([not why for why in missed])
     lo, hi = wilson_interval(int(met.sum()), len(met))
     excess = outcome.peak_fz - push_in
@@ -87,16 +91,8 @@ def goals(outcome: Outcome, trials: Trials, missed: list[list[str]],
             "measured": math.degrees(float(outcome.tilt_overshoot.max())),
             "target": f"no trial past {math.degrees(GOAL_OVERSHOOT):.2f} deg",
             "met": bool((outcome.tilt_overshoot <= GOAL_OVERSHOOT).all())},
-        "residual_force_N": {
-            "measured": float(outcome.residual_force[ok].max()) if ok.any() else None,
-            "over_target": int((outcome.residual_force[ok] > GOAL_RESIDUAL).sum()),
-            "target": f"<= {GOAL_RESIDUAL} in every assembled trial",
-            "met": bool((outcome.residual_force[ok] <= GOAL_RESIDUAL).all())},
-        "insertion_time_s": {
-            "measured": float(t.max()) if len(t) else None,
-            "over_target": int((t > deadline).sum()),
-            "target": f"<= {deadline:g} in every assembled trial",
-            "met": bool((t <= deadline).all())},
+        "residual_force_N": _per_trial(ok, outcome.residual_force, GOAL_RESIDUAL),
+        "insertion_time_s": _per_trial(ok, outcome.insertion_time, deadline),
     }  # fmt: skip
     for label, mask, value in (("peak_fz_clearance_median_N", ~interference, outcome.peak_fz),
                                ("peak_fz_over_push_in_median_N", interference, excess)):
@@ -105,6 +101,19 @@ def goals(outcome: Outcome, trials: Trials, missed: list[list[str]],
             rows[label] = {"measured": med, "target": f"<= {GOAL_PEAK_FZ}",
                            "met": med <= GOAL_PEAK_FZ, "trials": int(mask.sum())}  # fmt: skip
     return rows
+
+
+def _per_trial(assembled: np.ndarray, value: np.ndarray, limit: float) -> dict[str, Any]:
+    """A per-trial goal's row: the share of trials assembled with ``value <= limit`` (judged
+    against ``GOAL_SUCCESS``), the largest value of an assembled trial, and how many assembled
+    trials are over ``limit``."""
+    within = assembled & (np.nan_to_num(value, nan=np.inf) <= limit)
+    over = assembled & ~within
+    return {"share": float(within.mean()),
+            "measured": float(value[assembled].max()) if assembled.any() else None,
+            "over_target": int(over.sum()),
+            "target": f"<= {limit:g} per trial: a trial over it is a failed trial",
+            "met": float(within.mean()) >= GOAL_SUCCESS}  # fmt: skip
 
 
 def failures(outcome: Outcome, trials: Trials, missed: list[list[str]], seed: int,
