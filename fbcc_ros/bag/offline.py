@@ -39,14 +39,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from fbcc_ros.bag.reader import Bag
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.compensation.compensator import Compensated
 from fbcc_ros.core.control.phase import WAITING
 from fbcc_ros.core.errors import InputError
-from fbcc_ros.core.files import read_text
+from fbcc_ros.core.files import read_yaml
 from fbcc_ros.core.param_files import node_of
 from fbcc_ros.pipeline import compensation, controller, kinematics
 from fbcc_ros.pipeline.parameters import flatten, resolve
@@ -121,10 +120,7 @@ def node_parameters(bag_path: Path, files: Sequence[Path] = ()) -> dict[str, dic
         files = [folder / PARAMS_FILE]
     given: dict[str, dict[str, Any]] = {}
     for file in files:
-        try:
-            doc = yaml.safe_load(read_text(file, "--params"))
-        except yaml.YAMLError as exc:
-            raise InputError("--params", str(file), f"a YAML file ({exc})") from None
+        doc = read_yaml(file, "--params")
         if not isinstance(doc, dict):
             raise InputError("--params", str(file), "YAML of node_name: ros__parameters: ...")
         for node, body in doc.items():

@@ -122,6 +122,11 @@ def summarise(outcome: Outcome) -> dict[str, Any]:
     return out
 
 
+#: The most trials one study draws: its parts, initial errors and outcomes are held in memory
+#: together (a billion asked for ended in a MemoryError); a million take hours on two cores.
+MAX_TRIALS = 1_000_000
+
+
 def write_trials(trials: Trials, results: dict[str, Outcome], path: Path) -> None:
     with path.open("w", newline="") as f:
         w = csv.writer(f)
@@ -292,6 +297,9 @@ def main(argv: list[str] | None = None) -> int:
     for flag, value in (("--trials", args.trials), ("--workers", args.workers)):
         if value < 1:
             parser.error(f"{flag}={value} is not allowed: expected an integer >= 1")
+    if args.trials > MAX_TRIALS:
+        parser.error(f"--trials={args.trials} is not allowed: expected at most {MAX_TRIALS} "
+                     "(run several seeds for more)")
     if not (0 <= args.max_offset_mm <= 10 and 0 <= args.max_tilt_deg <= 20):
         parser.error("--max-offset-mm must be in [0, 10] mm and --max-tilt-deg in [0, 20] deg")
     out = out_dir(parser, args.out)

@@ -12,6 +12,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from fbcc_ros.core.files import read_yaml
+
 
 def node_of(key: str) -> str:
     """The node a ``ros__parameters`` file's key names: ``kinematics``, ``/kinematics``,
@@ -33,11 +35,9 @@ def node_section(doc: Any, node: str) -> dict[str, Any] | None:
 def file_parameters(files: Sequence[Path], node: str) -> dict[str, Any]:
     """``node``'s parameters from parameter files applied in order (later files win), as rcl
     applies several ``--params-file``."""
-    import yaml
-
     out: dict[str, Any] = {}
     for file in files:
-        out.update(flatten(node_section(yaml.safe_load(Path(file).read_text()), node) or {}))
+        out.update(flatten(node_section(read_yaml(file, "--params-file"), node) or {}))
     return out
 
 

@@ -351,6 +351,8 @@ def main(argv: list[str] | None = None) -> int:
                              "nodes of the bringup's own process)")  # fmt: skip
         if args.fault == "disk-full" and args.no_record:
             raise InputError("--fault", args.fault, "a recorded run (without --no-record)")
+    if args.seed < 0:
+        raise InputError("--seed", args.seed, "an integer >= 0")
     if args.wait_for_recorder and not args.no_record:
         raise InputError("--wait-for-recorder", True, "with --no-record (a recorder of "
                          "your own; the bringup's own is always waited for)")  # fmt: skip

@@ -18,6 +18,7 @@ from rcl_interfaces.msg import (
 from rclpy.node import Node
 
 from fbcc_ros.core.errors import FbccError, one_line
+from fbcc_ros.core.files import read_yaml
 from fbcc_ros.pipeline.parameters import Param, unknown_names
 from fbcc_ros.ros.executor import make_executor
 
@@ -111,20 +112,36 @@ def run(node_factory: Callable[[], Node]) -> None:
     import sys
 
     import rclpy
-    from rclpy.exceptions import ParameterException
+    from rclpy.exceptions import (
+        InvalidNamespaceException,
+        InvalidNodeNameException,
+        ParameterException,
+    )
     from rclpy.signals import SignalHandlerOptions
 
+    name = getattr(node_factory, "__name__", "node")
     stop: list[int] = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda number, _: stop.append(number))
-    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        for file in params_files(sys.argv):  # read strictly before rcl reads them
+            read_yaml(file, "--params-file")
+        rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    except FbccError as exc:
+        print(f"{name}: {one_line(exc)}", file=sys.stderr)
+        raise SystemExit(2) from None
+    except (RuntimeError, InvalidNamespaceException, InvalidNodeNameException) as exc:
+        # rcl's own refusal of the command line (RCLError is a RuntimeError): its first line
+        said = str(exc).split(", at /")[0]
+        print(f"{name}: the ROS arguments were refused: {said}", file=sys.stderr)
+        raise SystemExit(2) from None
     node = None
     try:
         try:
             node = node_factory()
         except (FbccError, ParameterException, OSError) as exc:  # OSError: the recorder's bag
             said = str(exc) if isinstance(exc, ParameterException) else one_line(exc)
-            print(f"{getattr(node_factory, '__name__', 'node')}: {said}", file=sys.stderr)
+            print(f"{name}: {said}", file=sys.stderr)
             raise SystemExit(2) from None
         executor = make_executor()
         executor.add_node(node)
@@ -135,6 +152,19 @@ def run(node_factory: Callable[[], Node]) -> None:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+
+
+def params_files(argv: Sequence[str]) -> list[str]:
+    """The files of ``--params-file FILE`` in a command line's ROS arguments."""
+    files, ros = [], False
+    for k, arg in enumerate(argv):
+        if arg == "--ros-args":
+            ros = True
+        elif arg == "--":
+            ros = False
+        elif ros and arg == "--params-file" and k + 1 < len(argv):
+            files.append(argv[k + 1])
+    return files
 
 
 def settle(nodes: Iterable[Any]) -> None:

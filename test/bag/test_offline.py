@@ -79,7 +79,7 @@ def test_parameter_files_are_checked_as_the_nodes_check_them(bag, tmp_path: Path
     with pytest.raises(ConfigError, match="rate_hz"):
         replay_offline(bag, node_parameters(BAG, [bad]))
     bad.write_text("a: [unclosed")
-    with pytest.raises(InputError, match=r"bad\.yaml"):
+    with pytest.raises(ConfigError, match=r"bad\.yaml"):
         node_parameters(BAG, [bad])
 
 

@@ -4,6 +4,7 @@ the decorator :func:`fbcc_ros.core.errors.command` that catches what reaches ``m
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -11,6 +12,7 @@ from typing import Any
 import pytest
 
 from fbcc_ros.cli import calibrate, kinematics, mapping_study, montecarlo, report, sim
+from fbcc_ros.core.files import MAX_BYTES
 from fbcc_ros.nodes import bringup, fbcc_replay
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -26,8 +28,16 @@ def _files(tmp: Path) -> dict[str, str]:
     (tmp / "zero_quaternion.csv").write_text(
         "qx,qy,qz,qw,fx,fy,fz,tx,ty,tz\n" + "0,0,0,1,0,0,1,0,0,0\n" * 3
         + "0,0,0,0,0,0,1,0,0,0\n")  # fmt: skip
+    scenario = Path(SCENARIO).read_text()
+    (tmp / "twice.yaml").write_text(scenario + "\nduration: 1.0\nduration: 9.0\n")
+    (tmp / "fifo.yaml").unlink(missing_ok=True)
+    os.mkfifo(tmp / "fifo.yaml")
+    (tmp / "big.yaml").write_text(scenario + "#" * (MAX_BYTES + 1))
+    (tmp / "params_twice.yaml").write_text(
+        "fbcc_controller:\n  ros__parameters:\n    timeout: 0.1\n    timeout: 9.0\n")
     return {name: str(tmp / name) for name in ("latin1.yaml", "a_file", "wrong_type.yaml",
-                                               "zero_quaternion.csv")}  # fmt: skip
+                                               "zero_quaternion.csv", "twice.yaml", "fifo.yaml",
+                                               "big.yaml", "params_twice.yaml")}  # fmt: skip
 
 
 #: (tool's main, its arguments given the files, a fragment the one line must hold)
@@ -40,6 +50,25 @@ CASES: dict[str, tuple[Callable[..., int], Callable[[dict[str, str]], list[str]]
         kinematics.main, lambda f: [f["latin1.yaml"], "--out", f["a_file"] + "_k"], "UTF-8"),
     "bringup, a scenario that is not UTF-8": (
         bringup.main, lambda f: [f["latin1.yaml"], "--no-record"], "UTF-8"),
+    "sim, a scenario with a key given twice": (
+        sim.main, lambda f: [f["twice.yaml"], "--out", f["a_file"] + "_t"],
+        "'duration' given twice"),
+    "bringup, a scenario with a key given twice": (
+        bringup.main, lambda f: [f["twice.yaml"], "--no-record"], "'duration' given twice"),
+    "montecarlo, a scenario that is a FIFO": (
+        montecarlo.main, lambda f: [f["fifo.yaml"], "--out", f["a_file"] + "_f"], "a FIFO"),
+    "sim, a scenario that is /dev/zero": (
+        sim.main, lambda f: ["/dev/zero", "--out", f["a_file"] + "_z"], "a character device"),
+    "kinematics, an oversized scenario": (
+        kinematics.main, lambda f: [f["big.yaml"], "--out", f["a_file"] + "_b"], "at most"),
+    "replay offline, a parameter file with a key given twice": (
+        fbcc_replay.main, lambda f: [BAG, "--offline", "--params", f["params_twice.yaml"]],
+        "'timeout' given twice"),
+    "montecarlo, a billion trials": (
+        montecarlo.main, lambda f: [SCENARIO, "--trials", "1000000000", "--out",
+                                    f["a_file"] + "_n"], "--trials=1000000000"),
+    "bringup, a negative seed": (
+        bringup.main, lambda f: [SCENARIO, "--seed", "-1", "--no-record"], "--seed"),
     "montecarlo, a negative seed": (
         montecarlo.main, lambda f: [SCENARIO, "--seed", "-3", "--out", f["a_file"] + "_s"],
         "--seed"),

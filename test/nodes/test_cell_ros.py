@@ -336,6 +336,30 @@ def test_a_bad_parameter_stops_a_node_with_a_message(
     assert message in run.stderr and "Traceback" not in run.stderr, run.stderr
 
 
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--params-file", "/nonexistent/cell.yaml"],
+         "--params-file='/nonexistent/cell.yaml' is not allowed: expected a readable file"),
+        (["--params-file", "/dev/zero"], "a regular file (this is a character device)"),
+        (["--params-file", "TWICE"], "'timeout' given twice, on line 3 and line 4"),
+        (["-r", "__ns:=not-a-namespace"],
+         "the ROS arguments were refused: failed to initialize rcl: Couldn't parse remap rule"),
+    ],
+)  # fmt: skip
+def test_bad_ros_arguments_stop_a_node_with_one_line(args: list[str], message: str,
+                                                     tmp_path: Path) -> None:  # fmt: skip
+    """Files and ROS arguments rcl would refuse with a traceback end in one line, exit 2."""
+    twice = tmp_path / "twice.yaml"
+    twice.write_text("fbcc_controller:\n  ros__parameters:\n    timeout: 0.1\n    timeout: 9.0\n")
+    args = [str(twice) if a == "TWICE" else a for a in args]
+    cmd = [sys.executable, "-m", "fbcc_ros.nodes.fbcc_controller", "--ros-args", *args]
+    run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert run.returncode == 2, run.stderr
+    last = run.stderr.strip().splitlines()[-1]
+    assert message in last and "Traceback" not in run.stderr, run.stderr
+
+
 def test_the_latency_probe_stops_watching_what_it_does_not_need() -> None:
     """Observer.probe_only: the truth, compensated wrenches and features are unsubscribed (the
     mock then stops publishing its truth); the commands, the TCP commands and the phase stay."""

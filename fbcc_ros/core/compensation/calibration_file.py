@@ -12,7 +12,7 @@ import yaml
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.compensation.payload import Calibration, Payload
 from fbcc_ros.core.errors import ConfigError, require_vector
-from fbcc_ros.core.files import read_text
+from fbcc_ros.core.files import read_yaml
 from fbcc_ros.core.param_files import node_section
 
 #: Node name whose parameters the calibration YAML holds.
@@ -42,7 +42,7 @@ def load_calibration(path: str | Path) -> tuple[Payload, FloatArray]:
     """Payload and bias from a file :func:`calibration_yaml` wrote (or a node parameter file
     with the same keys)."""
     try:
-        data: Any = yaml.safe_load(read_text(path, "calibration file"))
+        data: Any = read_yaml(path, "calibration file")
         params = node_section(data, NODE_NAME)
         if params is None:
             raise KeyError(NODE_NAME)

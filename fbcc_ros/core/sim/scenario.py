@@ -45,13 +45,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.control.laws import LAWS, Insertion, Params, params_from_mapping
 from fbcc_ros.core.errors import ConfigError, closest
-from fbcc_ros.core.files import read_text
+from fbcc_ros.core.files import read_yaml
 from fbcc_ros.core.sim.holder import Holder
 
 #: Plausibility ranges (SI): a value outside smells of mm, degrees or GPa given by mistake.
@@ -335,27 +334,10 @@ def _ros_cell(robot: Mapping[str, Any], sensor: Mapping[str, Any]) -> RosCell:
     return RosCell(model, namespace, conventions, source, qos)
 
 
-class _Loader(yaml.SafeLoader):
-    """SafeLoader that also reads ``5e-5`` and ``1e8`` as floats (YAML 1.2; PyYAML follows
-    YAML 1.1, which needs a dot and a signed exponent, and would hand us the text "5e-05")."""
-
-
-_Loader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
-    list("-+0123456789"),
-)
-
-
 def load(path: str | Path) -> Scenario:
     """Read and validate a scenario YAML file."""
     p = Path(path)
-    text = read_text(p, "scenario file")
-    try:
-        data = yaml.load(text, Loader=_Loader)
-    except yaml.YAMLError as exc:
-        raise ConfigError("scenario file", str(p), f"valid YAML ({exc})") from None
-    return validate(data, p.stem)
+    return validate(read_yaml(p, "scenario file"), p.stem)
 
 
 def find(value: str) -> Path:
