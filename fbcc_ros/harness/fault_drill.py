@@ -55,6 +55,9 @@ INJECT_AT = 1.0
 #: Seconds a fault that passes is left before the drill resets and starts again: long enough
 #: to show the hold.
 HOLD_FOR = 0.5
+#: Seconds a drill waits after a reset for the controller to say ``armed`` (a guard re-arms on
+#: the reset, then its wrench comes) before it starts, as an operator watching the phase would.
+REARM_WAIT = 1.0
 #: The recorder's file may grow this much past its size at the injection [bytes]: less than a
 #: chunk, so the next chunk's write fails.
 DISK_LEFT = 64 * 1024
@@ -317,6 +320,7 @@ def run_drill(run: Any, name: str, duration: float, bag: Path | None,
         run.spin_for(HOLD_FOR, clock)
         if observer.phase in NEEDS_RESET:
             _call(run, watch, "reset")
+            _wait(run, lambda: observer.phase == Phase.ARMED, REARM_WAIT)  # as an operator
         if observer.phase not in ACTIVE and _call(run, watch, "start"):
             run.spin_until(lambda: observer.phase == Phase.INSERTING, 2.0, "no phase inserting")
     run.spin_for(duration, clock)  # a resumed insertion has its whole time
@@ -338,6 +342,13 @@ def run_drill(run: Any, name: str, duration: float, bag: Path | None,
     watch.peak = tuple(float(v) for v in run.nodes["mock_cell"].cell.peak)  # type: ignore[assignment]
     watch.guard = now.stage.setup.guard if now is not None else watch.guard
     return watch
+
+
+def _wait(run: Any, done: Callable[[], bool], seconds: float) -> None:
+    """Spins until ``done`` or ``seconds`` have passed (not an error: the drill goes on)."""
+    deadline = time.monotonic() + seconds
+    while not done() and time.monotonic() < deadline:
+        run.executor.spin_once(timeout_sec=0.01)
 
 
 def stage_said(observer: Any) -> str:

@@ -34,6 +34,7 @@ from fbcc_ros.ros.inputs import subscribe_input
 from fbcc_ros.ros.outlet import Outlet
 from fbcc_ros.ros.params import declare, run
 from fbcc_ros.ros.robot_description import description_for
+from fbcc_ros.ros.sources import SourceWatch
 
 __all__ = ["TABLE", "DynamicCompensationNode"]
 
@@ -58,17 +59,21 @@ class DynamicCompensationNode(Node):
         self._publish_bias(self.get_clock().now().nanoseconds * 1e-9)
         # the inputs (their topics and QoS transport settings: the stage has none)
         joints, joints_qos = values["joint_states_topic"], values["joint_states_qos"]
+        inputs = [joints] if self.stage.robot is not None else []
         if self.stage.measured:  # the joint states carry the torques: one input
             subscribe_input(self, JointState, joints, self.on_measured, joints_qos)
         else:
             if self.stage.robot is not None:
                 subscribe_input(self, JointState, joints, self.on_joints, joints_qos)
             if self.stage.virtual:
+                inputs.append(topics.EXTERNAL_TORQUES)
                 subscribe_input(self, JointState, topics.EXTERNAL_TORQUES, self.on_torques,
                                 values["wrench_qos"])  # fmt: skip
             else:
+                inputs.append(values["wrench_topic"])
                 subscribe_input(self, WrenchStamped, values["wrench_topic"], self.on_raw,
                                 values["wrench_qos"])  # fmt: skip
+        self.sources = SourceWatch(self, inputs, (), self.on_source)
         counts = self.stage.comp.counts
         rejected = tuple(k for k in counts if k not in ("accepted", "taring"))
         publish_diagnostics(self, counter_report(lambda: self.stage.comp.counts, rejected,
@@ -115,11 +120,22 @@ class DynamicCompensationNode(Node):
             return
         self._publish(self.stage.measured_torques(stamp, q, dq, effort, received=self.now()))
 
+    def on_source(self, problem: str) -> None:
+        """A second publisher on an input (:mod:`fbcc_ros.ros.sources`): the guard trips."""
+        if self.stage.trip(problem):
+            self._say_trip()
+
     def on_rearm(self, msg: String) -> None:
+        self.sources.forget()  # a second source still there trips it anew
         cleared = self.stage.rearm()
         if cleared is not None:
             self.get_logger().info(f"wrench guard re-armed ({msg.data})")
             self.out_guard.publish(String(data=""))  # the latched trip is over
+
+    def _say_trip(self) -> None:
+        reason = f"wrench guard: {self.stage.comp.guard.reason}"
+        self.get_logger().error(reason)
+        self.out_guard.publish(String(data=reason))
 
     def _publish_bias(self, stamp: float) -> None:
         """The bias in use, latched: the configured one at start-up, the measured one with the
@@ -129,9 +145,7 @@ class DynamicCompensationNode(Node):
 
     def _publish(self, out: Compensated | None) -> None:
         if self.stage.just_tripped:
-            reason = f"wrench guard: {self.stage.comp.guard.reason}"
-            self.get_logger().error(reason)
-            self.out_guard.publish(String(data=reason))
+            self._say_trip()
         if out is None:
             counts = self.stage.comp.counts
             rejected = {k: v for k, v in counts.items() if k not in ("accepted", "taring") and v}

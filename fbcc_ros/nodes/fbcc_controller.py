@@ -19,6 +19,7 @@ failure, a tripped wrench guard — holds where the arm is and says why.
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 from geometry_msgs.msg import PoseStamped, WrenchStamped
@@ -38,6 +39,7 @@ from fbcc_ros.ros.convert import pose_from_cdr, pose_to_cdr, wrench_from_cdr
 from fbcc_ros.ros.diagnostics import ERROR, OK, WARN, publish_diagnostics
 from fbcc_ros.ros.outlet import Outlet
 from fbcc_ros.ros.params import declare, run
+from fbcc_ros.ros.sources import SourceWatch
 
 __all__ = ["TABLE", "FbccControllerNode"]
 
@@ -77,9 +79,12 @@ class FbccControllerNode(Node):
         self.create_service(Trigger, topics.RESET, self.on_reset)
         self.pub_rearm = self.create_publisher(String, topics.REARM, 10)
         self.create_timer(0.01, self.on_watchdog)
+        self.sources = SourceWatch(self, (topics.COMPENSATED_WRENCH, topics.FEATURES),
+                                   (topics.COMMAND,), self.on_source)
         self._phase_said = ""
         self._state_said = ""
         self._state_filter_gone = False
+        self._blind_said = self._blind_tick = 0
         self._warned: set[str] = set()
         self._publish_phase()
         publish_diagnostics(self, self._report)
@@ -96,7 +101,8 @@ class FbccControllerNode(Node):
         values = {"phase": self.sup.phase, "reason": self.sup.reason,
                   "armed": not not_armed, "not_armed": not_armed,
                   "contact_state": self._state_said, "input_rate_hz": rate.measured_hz,
-                  "late_samples": self.sup.late}  # fmt: skip
+                  "late_samples": self.sup.late, "stalls": self.sup.stalls,
+                  "blind_samples": self.sup.blind}  # fmt: skip
         worker = self.stage.state_worker
         if worker is not None:
             values["state_estimates_behind"] = worker.behind
@@ -110,6 +116,12 @@ class FbccControllerNode(Node):
         return level, said, values
 
     def now(self) -> float:
+        """The supervisor's clock: steady, so that no parameter (``use_sim_time``) and no
+        ``/clock`` publisher can stop the watchdogs [s]."""
+        return time.monotonic()
+
+    def stamp_now(self) -> float:
+        """The node's ROS time, for the stamps of what it publishes [s]."""
         return self.get_clock().now().nanoseconds * 1e-9
 
     def on_noise(self, data: bytes) -> None:
@@ -125,7 +137,7 @@ class FbccControllerNode(Node):
             command = self.stage.features(now, None)
             self.get_logger().error(f"features rejected: {exc}", throttle_duration_sec=1.0)
         if command is not None:  # retracting after a fault
-            self.out_command.publish(pose_to_cdr(command, self.hole_frame, now))
+            self.out_command.publish(pose_to_cdr(command, self.hole_frame, self.stamp_now()))
         self._publish_phase(hold=True)
 
     def on_wrench(self, data: bytes) -> None:
@@ -160,8 +172,25 @@ class FbccControllerNode(Node):
             self.sup.fault(msg.data, self.now())
         self._publish_phase(hold=True)
 
+    def on_source(self, problem: str) -> None:
+        """A second publisher on an input, or another commander (:mod:`fbcc_ros.ros.sources`):
+        a fault while anything runs, and a start is refused while it lasts."""
+        self.get_logger().error(problem)
+        self.sup.fault(problem, self.now())
+        self._publish_phase(hold=True)
+
     def on_watchdog(self) -> None:
+        stalls, blind = self.sup.stalls, self.sup.blind
+        last_tick, self._blind_tick = self._blind_tick, blind
         self.sup.watchdog(self.now())
+        if self.sup.stalls > stalls:  # one line per stall: each is an episode of its own
+            self.get_logger().warn(f"the controller itself did not run for over "
+                                   f"{self.sup.limits.timeout} s (stall {self.sup.stalls}; "
+                                   "counted on /diagnostics)")  # fmt: skip
+        if blind > self._blind_said and blind == last_tick:  # a pause ended a tick ago
+            self.get_logger().warn(f"the law paused on {blind - self._blind_said} wrenches "
+                                   "without fresh features (blind_samples on /diagnostics)")
+            self._blind_said = blind
         self._publish_phase(hold=True)
         self._publish_states()
 
@@ -188,7 +217,10 @@ class FbccControllerNode(Node):
         super().destroy_node()
 
     def start_insertion(self, now: float) -> tuple[bool, str]:
-        ok, message = self.sup.start(now)
+        if self.sources.problems:
+            ok, message = False, "; ".join(self.sources.problems)
+        else:
+            ok, message = self.sup.start(now)
         self.get_logger().info(f"start: {message}")
         self._publish_phase()
         return ok, message
@@ -207,6 +239,7 @@ class FbccControllerNode(Node):
         self.get_logger().info(f"reset: {response.message}")
         if response.success:  # the compensation's guard re-arms on it
             self.pub_rearm.publish(String(data=response.message))
+            self.sources.forget()  # a second source still there faults anew
         self._publish_phase()
         return response
 
@@ -219,7 +252,7 @@ class FbccControllerNode(Node):
             self._phase_said = said
             if hold and self.sup.phase in NEEDS_RESET and self.sup.command is not None:
                 pose = self.stage.pose(self.sup.command)
-                self.out_command.publish(pose_to_cdr(pose, self.hole_frame, self.now()))
+                self.out_command.publish(pose_to_cdr(pose, self.hole_frame, self.stamp_now()))
             self.pub_phase.publish(String(data=said))
             # one call site per severity: rclpy refuses a site that changes severity
             if self.sup.phase == Phase.FAULT:

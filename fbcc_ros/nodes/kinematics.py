@@ -49,6 +49,7 @@ from fbcc_ros.ros.inputs import subscribe_input
 from fbcc_ros.ros.outlet import Outlet
 from fbcc_ros.ros.params import declare, run
 from fbcc_ros.ros.robot_description import description_for
+from fbcc_ros.ros.sources import SourceWatch
 
 __all__ = ["TABLE", "KinematicsNode"]
 
@@ -72,6 +73,10 @@ class KinematicsNode(Node):
         subscribe_input(self, JointState, values["joint_states_topic"], self.on_joints,
                         values["joint_states_qos"])
         self.create_subscription(PoseStamped, topics.COMMAND, self.on_command, 10, raw=True)
+        self.sources = SourceWatch(self, (values["joint_states_topic"], topics.COMMAND),
+                                   (values["command_topic"],), self.on_source)
+        # the controller's reset acknowledged the fault: a problem still there is said anew
+        self.create_subscription(String, topics.REARM, lambda _: self.sources.forget(), 10)
         publish_diagnostics(
             self, counter_report(lambda: {"ik_failures": self.failures}, ("ik_failures",), "IK")
         )
@@ -88,6 +93,12 @@ class KinematicsNode(Node):
             self.get_logger().warn(f"joint state rejected: {exc}", throttle_duration_sec=1.0)
             return
         self.out_features.publish(pose_to_cdr(peg, self.hole_frame, stamp))
+
+    def on_source(self, problem: str) -> None:
+        """A second publisher on an input, or another commander of the arm
+        (:mod:`fbcc_ros.ros.sources`): the controller faults on the report."""
+        self.get_logger().error(problem)
+        self.pub_status.publish(String(data=problem))
 
     def on_command(self, data: bytes) -> None:
         try:

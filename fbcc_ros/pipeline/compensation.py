@@ -190,6 +190,16 @@ class CompensationStage:
         self._tripped_said = False
         return cleared
 
+    def trip(self, reason: str) -> bool:
+        """Trips the wrench guard for a fault the node sees (a second source on an input):
+        nothing passes until :meth:`rearm`. Returns whether it was not tripped before (the
+        reason to publish)."""
+        if self.comp.guard.tripped:
+            return False
+        self.comp.guard.trip(reason)
+        self._tripped_said = True
+        return True
+
     def joints(self, stamp: float, q: ArrayLike, dq: ArrayLike | None = None) -> None:
         """The arm's joint state (wrist placement: where the sensor and payload are)."""
         self.comp.joints(stamp, q, dq)

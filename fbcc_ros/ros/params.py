@@ -22,6 +22,11 @@ from fbcc_ros.core.files import read_yaml
 from fbcc_ros.pipeline.parameters import Param, unknown_names
 from fbcc_ros.ros.executor import make_executor
 
+#: The clock source: set at start-up only. Switched on a running node (with no ``/clock``) its
+#: clock read 0 and no stamp looked stale; the watchdogs run on a steady clock regardless.
+CLOCK_SOURCE = "use_sim_time"
+CLOCK_FIXED = (f"{CLOCK_SOURCE} is set at start-up only (--ros-args -p {CLOCK_SOURCE}:=true): "
+               "switched while the cell runs, the stamps of its messages would jump")
 #: Parameters rclpy itself gives every node (and its QoS overrides, ``qos_overrides.*``).
 ROS_OWN = ("use_sim_time", "start_type_description_service")
 
@@ -57,7 +62,8 @@ def declare(
     Start-up values outside a range or a choice, and keys the table does not declare, raise
     (rclpy's exception or :class:`~fbcc_ros.core.errors.ConfigError`). With ``apply``, a
     runtime change of a writable parameter is passed to it with all current values; if it
-    raises an FbccError the change is refused with the reason.
+    raises an FbccError the change is refused with the reason. ``use_sim_time`` is refused
+    at runtime (:data:`CLOCK_FIXED`).
     """
     given = [name for name in node._parameter_overrides
              if name not in ROS_OWN and not name.startswith("qos_overrides.")]  # fmt: skip
@@ -73,6 +79,8 @@ def declare(
     def on_set(changes: list[Any]) -> SetParametersResult:
         merged = dict(values)
         for change in changes:
+            if change.name == CLOCK_SOURCE:
+                return SetParametersResult(successful=False, reason=CLOCK_FIXED)
             if change.name in by_name:
                 value = plain(change.value)
                 try:

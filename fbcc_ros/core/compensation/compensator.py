@@ -4,7 +4,8 @@ Per sample, :class:`Compensator` does, in this order:
 
 1. **Checks.** The reading's frame must be the configured sensor frame (an error naming both),
    its stamp must be later than the last one, every value finite; a rejected sample is counted,
-   never propagated.
+   never propagated (never a zero). A sustained share of rejected samples (:data:`REJECTED_SHARE`
+   of the last :data:`REJECTED_WINDOW`) trips the wrench guard: the input itself is wrong.
 2. **Payload and bias** are removed in the sensor frame {S} (:func:`payload.compensate`), with the
    sensor's orientation and motion from the kinematics (constant for a sensor under the hole:
    its payload wrench is computed once).
@@ -29,6 +30,7 @@ A virtual sensor (the iiwa's external joint torques, as in the paper's experimen
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import math
 from typing import Literal
@@ -137,6 +139,13 @@ class Compensated:
     response: FloatArray
 
 
+#: The rejections that say the input itself is wrong (not the guard's, not the tare's).
+REJECTIONS = ("non_finite", "out_of_order", "future_stamp")
+#: Of the last :data:`REJECTED_WINDOW` samples, this share rejected trips the guard: a sensor
+#: rejects none (a reordered best-effort sample is rare), a second source on the topic or a
+#: clock ahead of ours rejects most; the law must not run on the remainder.
+REJECTED_SHARE = 0.2
+REJECTED_WINDOW = 100
 #: How far [s] a sample's stamp may lie ahead of its arrival (clocks of two machines disagree by
 #: milliseconds); a stamp further ahead is refused, not allowed to make later samples look old.
 MAX_STAMP_AHEAD = 0.05
@@ -170,6 +179,8 @@ class Compensator:
         self._lowpass = LowPass(setup.lowpass_hz)
         self._accel_lowpass = LowPass(setup.acceleration_lowpass_hz, "acceleration_lowpass_hz")
         self._last_stamp = -math.inf
+        self._recent: collections.deque[bool] = collections.deque()
+        self._recent_rejected = 0
         #: limits below the filters (module doc of wrench_guard); tripped, it passes nothing
         self.guard = WrenchGuard(setup.guard)
         #: the guard refused the tare (the configured bias stays)
@@ -266,6 +277,29 @@ class Compensator:
 
     def _process(self, stamp: float, wrench: ArrayLike, received: float | None
                  ) -> Compensated | None:  # fmt: skip
+        before = self._rejected()
+        out = self._compensate(stamp, wrench, received)
+        self._watch(self._rejected() > before)
+        return out
+
+    def _rejected(self) -> int:
+        return sum(self.counts[k] for k in REJECTIONS)
+
+    def _watch(self, rejected: bool) -> None:
+        """A sustained share of rejected samples trips the guard (:data:`REJECTED_SHARE`)."""
+        self._recent.append(rejected)
+        self._recent_rejected += rejected
+        if len(self._recent) > REJECTED_WINDOW:
+            self._recent_rejected -= self._recent.popleft()
+        if (len(self._recent) == REJECTED_WINDOW and not self.guard.tripped
+                and self._recent_rejected >= REJECTED_SHARE * REJECTED_WINDOW):  # fmt: skip
+            counts = {k: self.counts[k] for k in REJECTIONS if self.counts[k]}
+            self.guard.trip(f"{self._recent_rejected} of the last {REJECTED_WINDOW} samples "
+                            f"rejected (so far {counts}): a second source on the input, a "
+                            "clock that jumped or a failing sensor")  # fmt: skip
+
+    def _compensate(self, stamp: float, wrench: ArrayLike, received: float | None
+                    ) -> Compensated | None:  # fmt: skip
         if received is not None and stamp > received + MAX_STAMP_AHEAD:
             # a clock ahead of ours: taken, its stamp would refuse every later sample as old
             self.counts["future_stamp"] += 1

@@ -89,14 +89,14 @@ class WrenchGuard:
         over = np.abs(reading) > self._range
         if over.any():
             i = int(np.argmax(over))
-            return self._trip(f"raw {_AXES[i]} {reading[i]:.4g} beyond the sensor's range "
+            return self.trip(f"raw {_AXES[i]} {reading[i]:.4g} beyond the sensor's range "
                               f"±{self._range[i]:.4g}")  # fmt: skip
         if self._last is not None and stamp > self._last[0]:
             rate = np.abs(reading - self._last[1]) / (stamp - self._last[0])
             fast = rate > self._rate
             if fast.any():
                 i = int(np.argmax(fast))
-                return self._trip(f"raw {_AXES[i]} changed at {rate[i]:.4g}/s, faster than "
+                return self.trip(f"raw {_AXES[i]} changed at {rate[i]:.4g}/s, faster than "
                                   f"{self._rate[i]:.4g}/s")  # fmt: skip
         self._last = (stamp, reading.copy())
         return True
@@ -110,7 +110,7 @@ class WrenchGuard:
         for size, limit, what, unit in ((f, self.limits.force_limit, "|f|", "N"),
                                         (m, self.limits.moment_limit, "|m|", "N·m")):
             if size > keep * limit:
-                return self._trip(f"{what} {size:.4g} {unit} over {keep * limit:.4g} {unit}, "
+                return self.trip(f"{what} {size:.4g} {unit} over {keep * limit:.4g} {unit}, "
                                   f"the limit {limit:g} {unit} less its stop margin")
         return True
 
@@ -120,13 +120,14 @@ class WrenchGuard:
         d = measured - configured
         df, dm = float(np.linalg.norm(d[:3])), float(np.linalg.norm(d[3:]))
         if df > self.limits.max_tare[0] or dm > self.limits.max_tare[1]:
-            return self._trip(
+            return self.trip(
                 f"tare refused: it measured {df:.4g} N and {dm:.4g} N·m from the configured bias "
                 f"(at most {self.limits.max_tare[0]:g} N, {self.limits.max_tare[1]:g} N·m): a "
                 "load on the sensor while taring, or a payload not configured")
         return True
 
-    def _trip(self, reason: str) -> bool:
+    def trip(self, reason: str) -> bool:
+        """Trips with ``reason`` (the first reason stays); returns False, as a failed check."""
         if self.reason is None:
             self.reason = reason
         return False

@@ -9,15 +9,22 @@ fault or a force limit is refused until it has. A ``start()`` also needs recent 
 recent compensated wrench (a compensation still taring, or whose wrench guard has tripped,
 publishes none).
 
-A fault or a force limit holds where the arm is (the measured features while they are fresh,
-else the last command; an abort holds the last command) and records why; with ``retract`` > 0
-it then withdraws that far along the hole axis (the depth l), one ``max_step`` per measured
-features, while they keep coming (the wrench may not: a tripped guard withholds it):
+A fault or a force limit holds where the arm was last measured (the last features, however
+old: a command is never ahead of the arm's measured pose when a hold is sent; an abort holds the
+last command) and records why; with ``retract`` > 0 it then withdraws that far along the hole
+axis (the depth l), one ``max_step`` per measured features, while they keep coming (the wrench
+may not: a tripped guard withholds it):
 
 * non-finite features or response;
 * stale input: no features or no compensated wrench for longer than ``timeout`` (checked on
   every wrench and by :meth:`Supervisor.watchdog`);
 * the kinematics could not reach a command (:meth:`Supervisor.fault`, from the node).
+
+No blind commands: the law steps only on a compensated wrench that finds the features fresh,
+at most :func:`fresh_within` old on the clock ``now`` is read from (the nodes give a steady one:
+no parameter can stop it). A wrench without fresh features holds the command (counted in
+``blind``); the law's next step counts one period, not the blind time. So a stalled kinematics
+leaves the command at most a few periods ahead of the arm, and the stale-input fault follows.
 
 Every command moves at most ``max_step`` (offsets and depth, [m]) and ``max_step_angle``
 (tilts, [rad]) from the previous one, whatever the law asks.
@@ -43,6 +50,17 @@ from fbcc_ros.core.errors import ConfigError
 
 #: The most control periods one sample may stand for (a longer gap is stepped as this many).
 MAX_PERIODS = 10
+#: The features may be this many control periods old when the law steps (a cell's jitter at its
+#: rate) ...
+FRESH_PERIODS = 3
+#: ... and at least this old [s]: this machine's loop stalls 3-15 ms a few times per 10 s
+#: (docs/nodes.md); a pause longer than it holds the command instead of stepping blind.
+FRESH_FLOOR = 0.01
+
+
+def fresh_within(dt: float) -> float:
+    """The oldest the features may be for the law to step at the period ``dt`` [s]."""
+    return max(FRESH_PERIODS * dt, FRESH_FLOOR)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -109,7 +127,11 @@ class Supervisor:
         self._t_features = -math.inf
         self._t_wrench = -math.inf
         self._t_ran = -math.inf  # the last call of watchdog or on_response
+        #: the watchdog's own stalls (its process did not run for longer than the timeout)
         self.stalls = 0
+        #: wrenches on which the law did not step: the features were not fresh
+        self.blind = 0
+        self.fresh = fresh_within(dt)
 
     @property
     def active(self) -> bool:
@@ -130,11 +152,11 @@ class Supervisor:
                 self._hold(now, retract=False)
 
     def _hold(self, now: float, retract: bool = True) -> None:
-        """The command becomes the measured features when they are fresh at ``now``: the arm
-        stops where it is instead of going on to a command it has not reached (one step, plus
-        its lag, further into the hole). With stale features the last command stays."""
-        if (self.command is not None and self.features is not None
-                and now - self._t_features <= self.limits.timeout):  # fmt: skip
+        """The command becomes the last measured features: the arm stops where it was measured
+        instead of going on to a command it has not reached (a step and its lag further into the
+        hole, or, with an input stalled, as far as the law ran before the timeout). Stale
+        features are still the arm's last known pose; a command is only ever the law's guess."""
+        if self.command is not None and self.features is not None:
             self.command = self.features.copy()
         if retract and self.retract > 0.0 and self.command is not None:
             self._retract_to = self.command - np.array([0.0, 0.0, self.retract, 0.0, 0.0])
@@ -258,6 +280,10 @@ class Supervisor:
         self._t_wrench = self._t_ran = now
         self._check(now)
         if not self.active or self.features is None or self.command is None:
+            return self.command
+        if now - self._t_features > self.fresh:  # no blind steps (module doc)
+            self.blind += 1
+            self._t_sample = None  # the next step is one period, not the blind time
             return self.command
         x_c = self.law.step(w, self.features, self.period(stamp))
         law_phase = self.law.phase_of(0)

@@ -87,3 +87,33 @@ def test_a_tare_under_load_is_refused_and_trips_the_guard() -> None:
         else:
             assert all(o is not None for o in out[20:]) and not comp.guard.tripped
             np.testing.assert_allclose(comp.bias, [1.0, 0, 0, 0, 0, 0], atol=0.02)
+
+
+def test_a_second_source_interleaved_trips_it_and_its_zeros_are_not_the_wrench() -> None:
+    """A stray publisher of zeros stamped 30 ms ahead between the sensor's readings of a 50 N
+    contact: the real readings are refused as out of order, and within the window the share of
+    rejections trips the guard; before it, what passed is never a real reading counted as
+    zero, and after it nothing passes."""
+    comp = Compensator(SensorSetup())
+    real = np.array([0.0, 0.0, -50.0, 0.0, 0.0, 0.0])
+    outs = []
+    for k in range(1, 300):
+        t = k * DT
+        outs.append(comp.reading(t, "ft_sensor", real))
+        if k >= 100 and k % 10 == 0:  # the stray at 100 Hz, stamped ahead
+            outs.append(comp.reading(t + 0.03, "ft_sensor", np.zeros(6)))
+    assert comp.guard.tripped and "of the last 100 samples rejected" in str(comp.guard.reason)
+    assert "out_of_order" in str(comp.guard.reason)
+    tripped_at = next(i for i, o in enumerate(outs) if i > 100 and o is None
+                      and comp.counts["guard"] and all(x is None for x in outs[i:]))
+    assert tripped_at < 100 + 40  # within a fraction of a second of the stray's start
+    assert all(o is None for o in outs[tripped_at:])
+
+
+def test_rare_rejections_do_not_trip_it() -> None:
+    """One reading in ten out of order (a best-effort network reordering a lot): not a fault."""
+    comp = Compensator(SensorSetup())
+    for k in range(1, 1000):
+        stamp = (k - 1.5) * DT if k % 10 == 0 else k * DT  # older than the one before
+        comp.reading(stamp, "ft_sensor", np.zeros(6))
+    assert comp.counts["out_of_order"] == 99 and not comp.guard.tripped

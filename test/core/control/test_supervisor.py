@@ -69,15 +69,14 @@ def test_idle_until_armed_then_started_then_inserting() -> None:
         (
             lambda s: [s.watchdog(t) for t in np.arange(0.01, 0.2, 0.01)],
             "stale compensated wrench: none for 0.060 s",
-            "last",  # the features are stale too: the last command stays
+            "measured",  # the features are stale too: still the arm's last known pose
         ),
         (lambda s: s.fault("IK failed: out of reach", 0.001), "IK failed", "measured"),
     ],
 )  # fmt: skip
 def test_faults_hold_and_say_why(event, reason, holds) -> None:
-    """A fault stops the insertion with its reason and holds where the arm is: the measured
-    features while they are fresh (the arm does not go on to a command it has not reached),
-    else the last command."""
+    """A fault stops the insertion with its reason and holds where the arm was last measured
+    (the arm does not go on to a command it has not reached), however old that measurement."""
     sup = _supervisor(timeout=0.05)
     sup.on_features(0.0, np.zeros(5))
     _start(sup, 0.0)
@@ -148,6 +147,43 @@ def test_a_stall_of_our_own_is_not_stale_input() -> None:
     for t in np.arange(0.25, 0.32, 0.01):  # nothing more comes
         sup.watchdog(t)
     assert sup.phase == "fault" and "stale" in sup.reason
+
+
+def test_the_law_does_not_step_on_wrenches_without_fresh_features() -> None:
+    """The kinematics stalls while the wrenches keep coming: the law steps only while the
+    features are at most ``fresh`` old (10 ms at 1 kHz), then holds its command (counted as
+    blind) until the stale-input fault, which holds the last measured pose; a law that ran on
+    would have ramped 1.25 mm deeper in the 0.25 s timeout."""
+    sup = _supervisor()
+    assert sup.fresh == pytest.approx(0.01)
+    x = np.array([0.0, 0.0, 2e-3, 0.0, 0.0])
+    sup.on_features(0.0, x)
+    _start(sup, 0.0)
+    depths = []
+    for k in range(1, 300):  # the features stop at t = 0; a wrench every millisecond
+        t = k * DT
+        command = sup.on_response(t, np.zeros(5), stamp=t)
+        sup.watchdog(t)
+        depths.append(command[2] - x[2])
+    assert sup.phase == "fault" and "stale features" in sup.reason
+    assert max(depths) <= 10 * 5e-3 * DT + 1e-12  # 10 periods of the 5 mm/s ramp at most
+    assert sup.blind >= 240
+    np.testing.assert_array_equal(sup.command, x)  # held where the arm was last measured
+
+
+def test_after_a_blind_pause_the_law_steps_one_period() -> None:
+    """Features back after a pause: the next step counts one period, not the blind time."""
+    sup = _supervisor()
+    x = np.zeros(5)
+    sup.on_features(0.0, x)
+    _start(sup, 0.0)
+    sup.on_response(0.001, np.zeros(5), stamp=0.001)
+    before = sup.command[2]
+    for t in (0.02, 0.05):  # blind
+        assert sup.on_response(t, np.zeros(5), stamp=t)[2] == before
+    sup.on_features(0.06, x)
+    assert sup.on_response(0.06, np.zeros(5), stamp=0.06)[2] == pytest.approx(before + 5e-3 * DT)
+    assert sup.blind == 2 and sup.phase == "inserting"
 
 
 def test_stale_features_fault_on_the_next_wrench() -> None:
