@@ -1,7 +1,7 @@
 """fbcc_replay: a recorded session back onto the ROS graph with its timing, or offline.
 
     fbcc_replay BAG [--rate R] [--topics T [T ...]] [--start S] [--loop]
-                    [--wait-for-subscribers S] [--ros-args ...]
+                    [--wait-for-subscribers S] [--prefix NS] [--ros-args ...]
     fbcc_replay BAG --offline [--params FILE ...] [--namespace NS] [--out DIR]
 
 **Republish** (default): every message of the bag (or of ``--topics``) is published as it was
@@ -12,6 +12,14 @@ subscriber (at most S seconds; a topic still unheard then is named). Each topic 
 QoS it was recorded with (transient local where the recorded publisher was latched, so a late
 subscriber still gets the last phase). Progress is printed each second; Ctrl-C stops.
 
+**Never live by accident.** The replay publishes under ``--prefix`` (``/replay`` by default:
+``/replay/joint_states``), where no cell listens. ``--prefix /`` publishes onto the recorded
+names, and then: the arm's commands and the controller's phase (:data:`NEVER_LIVE`) are not
+published at all (a replayed joint command moved a live arm 4 mm, a replayed phase said
+"inserted" beside a controller in fault); a topic that has a publisher of the live graph
+refuses the replay before the first message (exit 2, naming the publishers); and a publisher
+that appears while it runs stops it (exit 1).
+
 **Offline** (``--offline``): the bag's joint states and the compensation's input (the raw
 wrench, or a virtual sensor's joint torques) run through the compensation, kinematics and
 controller core, without ROS (:mod:`fbcc_ros.bag.offline`), with the nodes' parameters from
@@ -21,7 +29,8 @@ largest difference from the recorded commands, per feature, against the stated t
 (:data:`TOLERANCE`), and with ``--out`` writes ``offline.csv`` and ``offline.json``. Changed
 parameters (another law, other gains) then show what they would have commanded.
 
-Exit status: 0 done; 1 offline, when the commands of unchanged parameters are not reproduced;
+Exit status: 0 done; 1 offline, when the commands of unchanged parameters are not reproduced,
+or live, when a live publisher appeared on a replayed topic;
 2 bad input (a missing file, a file that is not mcap, a bag without the needed topics, a bad
 option), with one line saying what and no traceback.
 """
@@ -41,11 +50,29 @@ import numpy as np
 from fbcc_ros.bag.reader import Bag, read_bag
 from fbcc_ros.core.contact.model import FEATURE_NAMES
 from fbcc_ros.core.errors import InputError, command
+from fbcc_ros.ros import topics
 
 #: Offline replay of a bag with its own parameters reproduces its commands within this, in m
 #: (offsets, depth) and rad (tilts): float rounding only. The committed test bag replays to
 #: ~1e-16; what exceeds this is a change of behaviour, not noise.
 TOLERANCE = 1e-12
+
+
+#: Where the replay publishes by default: a namespace no cell listens in.
+PREFIX = "/replay"
+#: How long the live graph is looked at before the first message [s] (a running cell's
+#: publishers are discovered within a few hundred milliseconds here), and how often after it.
+DISCOVERY = 1.0
+LOOK_PERIOD = 0.05
+#: What is never published onto the recorded names (``--prefix /``): the arm's commands (ours,
+#: the LBR stack's) and the controller's phase.
+NEVER_LIVE = (topics.JOINT_COMMAND, topics.LBR_COMMAND, topics.COMMAND, topics.TCP_COMMAND,
+              topics.PHASE)  # fmt: skip
+
+
+def never_live(topic: str) -> bool:
+    """Whether the bag's ``topic`` (under any namespace) is one of :data:`NEVER_LIVE`."""
+    return any(topic == f"/{name}" or topic.endswith(f"/{name}") for name in NEVER_LIVE)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -55,6 +82,10 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--topics", nargs="+", default=None, help="only these topics")
     parser.add_argument("--start", type=float, default=0.0, help="skip the first S seconds")
     parser.add_argument("--loop", action="store_true", help="start again at the end")
+    parser.add_argument("--prefix", default=PREFIX, metavar="NS",
+                        help=f"publish under this namespace (default {PREFIX}); '/' onto the "
+                        "recorded names: then never the commands nor the phase, and not onto "
+                        "a topic with a live publisher")  # fmt: skip
     parser.add_argument(
         "--wait-for-subscribers",
         type=float,
@@ -120,12 +151,33 @@ def _wait_for_subscribers(pubs: dict[str, Any], seconds: float | None) -> None:
         time.sleep(0.5)
         return
     deadline = time.monotonic() + seconds
-    while unheard := sorted(t for t, pub in pubs.items() if pub.get_subscription_count() == 0):
+    while unheard := sorted(p.topic_name for p in pubs.values()
+                            if p.get_subscription_count() == 0):  # fmt: skip
         if time.monotonic() >= deadline:
             print(f"fbcc_replay: no subscriber after {seconds:g} s on {unheard}; publishing "
                   "anyway", file=sys.stderr, flush=True)  # fmt: skip
             return
         time.sleep(0.01)
+
+
+def live_publishers(node: Any, names: list[str]) -> dict[str, list[str]]:
+    """The publishers of the live graph (not ``node``) on each of ``names`` that has any (a
+    count first, ~5 µs a topic: the names only when there are others)."""
+    me = (node.get_name(), node.get_namespace())
+    found = {}
+    for name in names:
+        if node.count_publishers(name) <= 1:  # ours alone
+            continue
+        others = sorted(f"{i.node_namespace.rstrip('/')}/{i.node_name}"
+                        for i in node.get_publishers_info_by_topic(name)
+                        if (i.node_name, i.node_namespace) != me)  # fmt: skip
+        if others:
+            found[name] = others
+    return found
+
+
+def _live_said(found: dict[str, list[str]]) -> str:
+    return "; ".join(f"{t} ({', '.join(names)})" for t, names in found.items())
 
 
 def republish(
@@ -135,8 +187,10 @@ def republish(
     loop: bool,
     ros_args: list[str],
     wait_for_subscribers: float | None = None,
+    prefix: str = PREFIX,
 ) -> int:
-    """Publishes ``messages`` at their recorded pace / ``rate``; returns how many."""
+    """Publishes ``messages`` at their recorded pace / ``rate``, each topic under ``prefix``
+    (module doc); returns how many."""
     import rclpy
     from rclpy.duration import Duration
     from rclpy.node import Node
@@ -146,21 +200,36 @@ def republish(
     context = rclpy.Context()
     rclpy.init(args=["fbcc_replay", *ros_args], context=context)
     node = Node("fbcc_replay", context=context)
+    root = prefix.rstrip("/")
     try:
-        pubs = {t: node.create_publisher(message_class(bag.topics[t]), t, _qos(bag.qos.get(t, [])))
+        pubs = {t: node.create_publisher(message_class(bag.topics[t]), root + t,
+                                         _qos(bag.qos.get(t, [])))
                 for t in {m.topic for m in messages}}  # fmt: skip
         _wait_for_subscribers(pubs, wait_for_subscribers)
+        names = [pub.topic_name for pub in pubs.values()]
+        deadline = time.monotonic() + DISCOVERY  # the live graph, discovered
+        while not (found := live_publishers(node, names)) and time.monotonic() < deadline:
+            time.sleep(0.02)
+        if found:
+            raise InputError("--prefix", prefix, "a namespace without live publishers: "
+                             f"{_live_said(found)} publish there now (a cell is running)")
         t0 = messages[0].log_time_ns
         span = (messages[-1].log_time_ns - t0) * 1e-9 / rate
         sent = 0
         while True:
             wall0, said = time.monotonic(), 0
+            looked = wall0
             for m in messages:
                 due = wall0 + (m.log_time_ns - t0) * 1e-9 / rate
                 if (wait := due - time.monotonic()) > 0:
                     time.sleep(wait)
                 pubs[m.topic].publish(m.data)
                 sent += 1
+                if (now := time.monotonic()) >= looked + LOOK_PERIOD:
+                    looked = now
+                    if found := live_publishers(node, names):
+                        raise LiveGraphError(f"stopped: {_live_said(found)} began publishing "
+                                             "on a replayed topic (a cell started)")  # fmt: skip
                 if (elapsed := time.monotonic() - wall0) >= said + 1:
                     said += 1
                     print(f"  {elapsed:5.1f} s of {span:.1f} s, {sent} messages", flush=True)
@@ -171,6 +240,10 @@ def republish(
     finally:
         node.destroy_node()
         rclpy.try_shutdown(context=context)
+
+
+class LiveGraphError(Exception):
+    """A live publisher appeared on a replayed topic while the replay ran."""
 
 
 def offline(bag: Bag, params: list[Path], out: Path | None, namespace: str | None = None
@@ -229,14 +302,30 @@ def main(argv: list[str] | None = None) -> int:
                   file=sys.stderr)  # fmt: skip
         if args.offline:
             return offline(bag, list(args.params), args.out, args.namespace)
+        if not args.prefix.startswith("/"):
+            raise InputError("--prefix", args.prefix, "an absolute namespace (/replay), or / "
+                             "for the recorded names")  # fmt: skip
         messages = schedule(bag, args.topics, args.start)
+        if args.prefix.rstrip("/") == "":
+            held = sorted({m.topic for m in messages if never_live(m.topic)})
+            messages = [m for m in messages if not never_live(m.topic)]
+            if held:
+                print(f"fbcc_replay: not published onto the recorded names: {held} (the arm's "
+                      "commands and the phase; --prefix /replay publishes them there)",
+                      flush=True)  # fmt: skip
+            if not messages:
+                raise InputError("--topics", args.topics, "a topic other than the commands "
+                                 "and the phase with --prefix /")  # fmt: skip
         span = (messages[-1].log_time_ns - messages[0].log_time_ns) * 1e-9
         print(f"fbcc_replay: {len(messages)} messages on {len({m.topic for m in messages})} "
-              f"topics, {span:.1f} s at rate {args.rate:g}{' (loop)' if args.loop else ''}",
-              flush=True)  # fmt: skip
-        sent = republish(bag, messages, args.rate, args.loop, ros_args, wait)
+              f"topics under {args.prefix}, {span:.1f} s at rate {args.rate:g}"
+              f"{' (loop)' if args.loop else ''}", flush=True)  # fmt: skip
+        sent = republish(bag, messages, args.rate, args.loop, ros_args, wait, args.prefix)
     except KeyboardInterrupt:
         return 0
+    except LiveGraphError as exc:
+        print(f"fbcc_replay: {exc}", file=sys.stderr)
+        return 1
     print(f"fbcc_replay: published {sent} messages")
     return 0
 

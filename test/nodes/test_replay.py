@@ -43,10 +43,10 @@ def test_republished_at_the_recorded_pace_scaled_by_the_rate() -> None:
     node = Node("listener", context=context)
     got: list[tuple[float, tuple[int, int]]] = []
     phases: list[str] = []
-    node.create_subscription(JointState, "/joint_states",
+    node.create_subscription(JointState, "/replay/joint_states",
                              lambda d: got.append((time.monotonic(), decode_joints(d)[0])),
                              1000, raw=True)  # fmt: skip
-    node.create_subscription(String, "/fbcc/phase", lambda m: phases.append(m.data),
+    node.create_subscription(String, "/replay/fbcc/phase", lambda m: phases.append(m.data),
                              topics.PHASE_QOS)  # fmt: skip
     executor.add_node(node)
     topics_ = ("--topics", "/joint_states", "/fbcc/phase")
@@ -123,5 +123,39 @@ def test_a_topic_nobody_hears_is_named_after_the_wait_and_published_anyway() -> 
     proc = _replay(str(BAG), "--topics", "/fbcc/phase", "--wait-for-subscribers", "0.3")
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err
-    assert "no subscriber after 0.3 s on ['/fbcc/phase']" in err, err
+    assert "no subscriber after 0.3 s on ['/replay/fbcc/phase']" in err, err
     assert "published 4 messages" in out, out  # four phases: idle, armed, inserting, inserted
+
+
+def test_onto_the_recorded_names_never_the_commands_nor_the_phase() -> None:
+    """``--prefix /``: the commands and the phase are left out, and said so; a bag of only
+    those has nothing left to publish (one line, exit 2)."""
+    proc = _replay(str(BAG), "--prefix", "/", "--topics", "/fbcc/phase", "/joint_command")
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 2, (out, err)
+    assert "not published onto the recorded names: ['/fbcc/phase', '/joint_command']" in out
+    assert "Traceback" not in err and "--topics" in err.strip().splitlines()[-1], err
+
+
+def test_a_topic_with_a_live_publisher_refuses_the_replay_naming_it() -> None:
+    """A cell running: its joint states have a publisher; a replay onto the recorded names
+    refuses before its first message, naming the live publisher; under the default prefix the
+    same replay runs beside it."""
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = Node("live_arm", context=context)
+    node.create_publisher(JointState, "/joint_states", 10)
+    try:
+        proc = _replay(str(BAG), "--prefix", "/", "--topics", "/joint_states", "/ft_sensor/raw",
+                       "--rate", "20")  # fmt: skip
+        out, err = proc.communicate(timeout=60)
+        assert proc.returncode == 2, (out, err)
+        last = err.strip().splitlines()[-1]
+        assert "/joint_states (/live_arm) publish there now (a cell is running)" in last, err
+        assert "published" not in out and "Traceback" not in err
+        beside = _replay(str(BAG), "--topics", "/joint_states", "--rate", "20")
+        out, err = beside.communicate(timeout=60)
+        assert beside.returncode == 0 and "under /replay" in out, (out, err)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
