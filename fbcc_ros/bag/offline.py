@@ -215,7 +215,7 @@ def replay_offline(bag: Bag, given: dict[str, dict[str, Any]], namespace: str | 
                 step(stamp, functools.partial(comp.measured_torques, stamp, q, dq, effort))
             elif cell.wrist:
                 comp.joints(stamp, q, dq)
-            ctrl.features(stamp, cell.kinematics.joints(q))
+            ctrl.features(stamp, cell.kinematics.joints(q), stamp)
         elif m.topic == input_topic:
             if comp.virtual:
                 stamp, tau = efforts_from_cdr(m.data, names)

@@ -86,6 +86,7 @@ class CellRun:
 
         self.specs = specs
         self.processes = processes
+        self.namespace = namespace
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
         self.executor = make_executor(self.context)
@@ -221,6 +222,22 @@ class CellRun:
         self._add(name, built[0])
         self._chain(only=name)
         gc.freeze()  # as settle does, without its full collection in the running loop
+
+    def freeze(self, name: str) -> None:
+        """The node ``name`` of this process stops running, as a stopped process does: its
+        callbacks leave the executor and the chained calls into it are withheld (what is
+        sent to it meanwhile waits in its subscriptions' queues, or is lost). :meth:`thaw`
+        lets it go on."""
+        node = self.nodes[name]
+        for up_name, outlet, down_name, _ in CHAIN:
+            if down_name == name and hasattr(self.nodes.get(up_name), outlet):
+                _unlink(getattr(self.nodes[up_name], outlet), name)
+        self.executor.remove_node(node)
+
+    def thaw(self, name: str) -> None:
+        """The node frozen by :meth:`freeze` runs again, chained in its old place."""
+        self.executor.add_node(self.nodes[name])
+        self._chain(only=name)
 
     def _spawn(self, spec: NodeSpec) -> None:
         self.log_dir.mkdir(parents=True, exist_ok=True)

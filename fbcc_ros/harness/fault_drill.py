@@ -47,6 +47,7 @@ from fbcc_ros.core.compensation.wrench_guard import GuardLimits
 from fbcc_ros.core.control.phase import ACTIVE, NEEDS_RESET, Phase
 from fbcc_ros.core.errors import FbccError
 from fbcc_ros.core.sim.sensor_faults import SENSOR_FAULTS
+from fbcc_ros.harness import cell_faults as cell
 from fbcc_ros.ros import topics
 from fbcc_ros.ros.convert import positions_from_cdr
 
@@ -55,6 +56,8 @@ INJECT_AT = 1.0
 #: Seconds a fault that passes is left before the drill resets and starts again: long enough
 #: to show the hold.
 HOLD_FOR = 0.5
+#: The arm ends within this of its hold [m] (offsets and depth: measured against the hold).
+HOLD_TOLERANCE = 5e-5
 #: Seconds a drill waits after a reset for the controller to say ``armed`` (a guard re-arms on
 #: the reset, then its wrench comes) before it starts, as an operator watching the phase would.
 REARM_WAIT = 1.0
@@ -102,6 +105,9 @@ class DrillWatch:
     #: the true contact's largest |f| [N] and |m| about the {H} origin [N·m] (the mock's)
     peak: tuple[float, float] = (0.0, 0.0)
     guard: GuardLimits = dataclasses.field(default_factory=GuardLimits)  # the running one's
+    #: at the end, holding: how far the arm's measured pose is from the held command (the
+    #: largest of dx, dy, l) [m]; None when not holding or not known
+    hold_error: float | None = None
 
     def outcome(self, phase: str) -> str:
         if self.refused:
@@ -122,6 +128,9 @@ class DrillWatch:
             unsafe.append(f"true |m| {moment:.2f} N·m over {guard.moment_limit:g} N·m")
         if joint_step > 1.0:
             unsafe.append(f"a joint-command step {joint_step:.2f} times one period's travel")
+        if self.hold_error is not None and self.hold_error > HOLD_TOLERANCE:
+            unsafe.append(f"the arm {self.hold_error * 1e3:.3f} mm from its hold (at most "
+                          f"{HOLD_TOLERANCE * 1e3:g} mm)")  # fmt: skip
         recorded = None
         if bag is not None:  # a full disk cuts the bag: what it holds must be what it counts
             recorded = {"complete": not bag["truncated"],
@@ -155,6 +164,7 @@ class DrillWatch:
             "peak_moment": round(moment, 3),
             "moment_limit": guard.moment_limit,
             "joint_step": round(joint_step, 3),
+            "hold_error": None if self.hold_error is None else round(self.hold_error, 7),
             "bag": recorded,
             "injected_at": self.injected_at,
             "safe": not unsafe,
@@ -285,6 +295,26 @@ DRILLS: dict[str, Drill] = {
                                _start_after_fault, "refused"),
     "disk-full": Drill("the recorder's disk fills up (its files may not grow)", _disk_full,
                        "recovered", cuts_bag=True),
+    "frozen-kinematics": Drill(f"the kinematics does not run for {cell.FROZEN_FOR:g} s (its "
+                               "process stopped), then goes on", cell.frozen("kinematics"),
+                               "held"),
+    "frozen-compensation": Drill(f"the compensation does not run for {cell.FROZEN_FOR:g} s, then "
+                                 "goes on", cell.frozen("dynamic_compensation"), "held"),
+    "stray-wrench": Drill(f"a stray node publishes zero wrenches on {topics.RAW_WRENCH} at "
+                          f"{cell.STRAY_HZ:g} Hz, stamped {cell.STRAY_AHEAD * 1e3:g} ms ahead",
+                          cell.stray(topics.RAW_WRENCH, "wrench"), "held"),
+    "stray-joint-states": Drill(f"a stray node publishes joint states on {topics.JOINT_STATES} "
+                                f"at {cell.STRAY_HZ:g} Hz, stamped "
+                                f"{cell.STRAY_AHEAD * 1e3:g} ms ahead",
+                                cell.stray(topics.JOINT_STATES, "joints"), "held"),
+    "stray-commander": Drill(f"a stray node commands the arm on {topics.JOINT_COMMAND} (where "
+                             f"it is measured) at {cell.STRAY_HZ:g} Hz",
+                             cell.stray(topics.JOINT_COMMAND, "command"), "held"),
+    "clock-change": Drill("use_sim_time set to true on the running controller (no /clock)",
+                          lambda run, w, b: _set(run, w, "fbcc_controller", "use_sim_time", True),
+                          "refused"),
+    "replay-beside": Drill("fbcc_replay of another session onto the recorded names, beside the "
+                           "running cell", cell.replay_beside_drill, "refused"),
 }  # fmt: skip
 
 
@@ -339,6 +369,11 @@ def run_drill(run: Any, name: str, duration: float, bag: Path | None,
     watch.rejected = {k: after[k] - counts.get(k, 0) for k in after
                       if after[k] > counts.get(k, 0)}  # fmt: skip
     watch.faults = [p for p in observer.phases[first_phase:] if ":" in p]
+    if controller is not None:
+        sup = controller.sup
+        if sup.phase in (*NEEDS_RESET, Phase.ABORTED) and sup.features is not None \
+                and sup.command is not None:  # fmt: skip
+            watch.hold_error = float(np.abs(sup.features - sup.command)[:3].max())
     watch.peak = tuple(float(v) for v in run.nodes["mock_cell"].cell.peak)  # type: ignore[assignment]
     watch.guard = now.stage.setup.guard if now is not None else watch.guard
     return watch

@@ -51,12 +51,8 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="fbcc_bringup", description=__doc__.splitlines()[0])
     parser.add_argument("scenario", nargs="?", default=DEFAULT_SCENARIO)
     parser.add_argument("--law", choices=("fbcc", "admittance", "none"), default=None)
-    parser.add_argument(
-        "--out",
-        type=Path,
-        default=None,
-        help="folder for summary.json (and the node logs with --processes)",
-    )
+    parser.add_argument("--out", type=Path, default=None,
+                        help="folder for summary.json (and the node logs with --processes)")
     parser.add_argument(
         "--draw-geometry", action="store_true", help="true radii drawn from Table II's tolerances"
     )

@@ -24,6 +24,7 @@ from typing import Any
 
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
+from rclpy.qos import QoSProfile
 from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import Trigger
 
@@ -49,6 +50,8 @@ ESTIMATE_LAYOUT = [(" ".join(("stamp", *ESTIMATE_FIELDS)), len(ESTIMATE_FIELDS) 
 #: The layout of fbcc/contact_state_estimate: the stamp, then P(state) per plane.
 STATE_FIELDS = ("stamp", *(f"{plane}:{s}" for plane in ("xoz", "yoz") for s in STATES))
 STATE_LAYOUT = [(" ".join(STATE_FIELDS), len(STATE_FIELDS), len(STATE_FIELDS))]
+#: The services' request queue: deep enough for a burst of callers.
+SERVICE_QOS = QoSProfile(depth=100)
 #: Contact-state answers published per watchdog tick (100 Hz): twice the 200 Hz they come at.
 STATES_PER_TICK = 4
 
@@ -74,9 +77,11 @@ class FbccControllerNode(Node):
         self.create_subscription(String, topics.KINEMATICS_STATUS, self.on_fault, 10)
         self.create_subscription(String, topics.GUARD, self.on_fault, topics.PHASE_QOS)
         sub(WrenchStamped, topics.NOISE, self.on_noise, topics.PHASE_QOS, raw=True)
-        self.create_service(Trigger, topics.START, self.on_start)
-        self.create_service(Trigger, topics.ABORT, self.on_abort)
-        self.create_service(Trigger, topics.RESET, self.on_reset)
+        # a burst of calls is answered, each (the default depth of 10 left 10 of 20 concurrent
+        # starts unanswered): refused with a reason or accepted, never lost
+        for name, callback in ((topics.START, self.on_start), (topics.ABORT, self.on_abort),
+                               (topics.RESET, self.on_reset)):  # fmt: skip
+            self.create_service(Trigger, name, callback, qos_profile=SERVICE_QOS)
         self.pub_rearm = self.create_publisher(String, topics.REARM, 10)
         self.create_timer(0.01, self.on_watchdog)
         self.sources = SourceWatch(self, (topics.COMPENSATED_WRENCH, topics.FEATURES),
@@ -132,7 +137,8 @@ class FbccControllerNode(Node):
     def on_features(self, data: bytes) -> None:
         now = self.now()
         try:
-            command = self.stage.features(now, pose_from_cdr(data)[1])
+            stamp, pose = pose_from_cdr(data)  # stamped with the joint state it is read from
+            command = self.stage.features(now, pose, stamp)
         except FbccError as exc:
             command = self.stage.features(now, None)
             self.get_logger().error(f"features rejected: {exc}", throttle_duration_sec=1.0)

@@ -152,14 +152,16 @@ class ControllerStage:
         return (self.auto_start and self.sup.phase in WAITING and self.sup.command is None
                 and self.sup.features is not None)  # fmt: skip
 
-    def features(self, now: float, peg_in_hole: pin.SE3 | None) -> pin.SE3 | None:
-        """The peg's measured pose in {H} (None: unreadable, a fault while inserting); returns
-        a new command pose if they move one (the retract after a fault), else None.
-        Raises :class:`~fbcc_ros.core.errors.InputError` for a peg tilted 90° or more."""
+    def features(self, now: float, peg_in_hole: pin.SE3 | None, stamp: float | None = None
+                 ) -> pin.SE3 | None:  # fmt: skip
+        """The peg's measured pose in {H} (None: unreadable, a fault while inserting), sampled
+        at ``stamp``; returns a new command pose if they move one (the retract after a fault),
+        else None. Raises :class:`~fbcc_ros.core.errors.InputError` for a peg tilted 90° or
+        more."""
         if peg_in_hole is None:
             self.sup.on_features(now, [float("nan")] * 5)
             return None
-        return self.pose(self.sup.on_features(now, self.features_of(peg_in_hole)))
+        return self.pose(self.sup.on_features(now, self.features_of(peg_in_hole), stamp))
 
     def pose(self, command: FloatArray | None) -> pin.SE3 | None:
         """The peg's pose in {H} for command features (None for None)."""

@@ -38,6 +38,13 @@ REASONS = {
     "max-step-param": ("at most its start-up value",),
     "start-after-fault": ("acknowledge it with reset first",),
     "disk-full": ("recording stopped",),
+    "frozen-kinematics": ("stale features",),
+    "frozen-compensation": ("stale compensated wrench",),
+    "stray-wrench": ("2 publishers on /ft_sensor/raw (/mock_cell, /stray_publisher)",),
+    "stray-joint-states": ("2 publishers on /joint_states (/mock_cell, /stray_publisher)",),
+    "stray-commander": ("another commander on /joint_command: /stray_publisher",),
+    "clock-change": ("use_sim_time is set at start-up only",),
+    "replay-beside": ("/joint_states (/mock_cell) publish there now (a cell is running)",),
 }
 
 
@@ -62,6 +69,8 @@ def test_a_fault_drill_ends_safe(name: str, tmp_path: Path, capfd) -> None:
     assert 0.0 < drill["peak_force"] <= drill["force_limit"] == 300.0, drill
     assert 0.0 < drill["peak_moment"] <= drill["moment_limit"] == 30.0, drill
     assert 0.0 < drill["joint_step"] <= 1.0, drill
+    if drill["final_phase"] in ("fault", "force_limit", "aborted"):  # the arm at its hold
+        assert drill["hold_error"] is not None and drill["hold_error"] <= 5e-5, drill
     assert "Traceback" not in out.err
     bag = read_bag(Path(summary["bag"]["path"]))
     counted = _metadata_counts(bag.path.parent)

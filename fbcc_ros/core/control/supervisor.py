@@ -20,11 +20,13 @@ may not: a tripped guard withholds it):
   every wrench and by :meth:`Supervisor.watchdog`);
 * the kinematics could not reach a command (:meth:`Supervisor.fault`, from the node).
 
-No blind commands: the law steps only on a compensated wrench that finds the features fresh,
-at most :func:`fresh_within` old on the clock ``now`` is read from (the nodes give a steady one:
-no parameter can stop it). A wrench without fresh features holds the command (counted in
-``blind``); the law's next step counts one period, not the blind time. So a stalled kinematics
-leaves the command at most a few periods ahead of the arm, and the stale-input fault follows.
+No blind commands: the law steps only on a compensated wrench that finds the features fresh:
+sampled at most :func:`fresh_within` before it (their stamps, when given, else the times
+``now`` they came at; from the data, so the offline replay of a bag takes the same steps). A
+wrench without fresh features holds the command (counted in ``blind``); the law's next step
+counts one period, not the blind time. So a stalled kinematics leaves the command at most a few
+periods ahead of the arm, and the stale-input fault follows (judged on ``now``: the nodes give a
+steady clock, which no parameter can stop).
 
 Every command moves at most ``max_step`` (offsets and depth, [m]) and ``max_step_angle``
 (tilts, [rad]) from the previous one, whatever the law asks.
@@ -125,6 +127,7 @@ class Supervisor:
         self.command: FloatArray | None = None
         self.features: FloatArray | None = None
         self._t_features = -math.inf
+        self._s_features = -math.inf  # the features' sample time (their stamp, else arrival)
         self._t_wrench = -math.inf
         self._t_ran = -math.inf  # the last call of watchdog or on_response
         #: the watchdog's own stalls (its process did not run for longer than the timeout)
@@ -161,14 +164,16 @@ class Supervisor:
         if retract and self.retract > 0.0 and self.command is not None:
             self._retract_to = self.command - np.array([0.0, 0.0, self.retract, 0.0, 0.0])
 
-    def on_features(self, now: float, features: ArrayLike) -> FloatArray | None:
-        """The measured features; returns a new command if they move one (the retract after
-        a fault, a step each), else None."""
+    def on_features(self, now: float, features: ArrayLike, stamp: float | None = None
+                    ) -> FloatArray | None:  # fmt: skip
+        """The measured features (sampled at ``stamp``, if given); returns a new command if
+        they move one (the retract after a fault, a step each), else None."""
         x = np.asarray(features, dtype=float)
         if x.shape != (5,) or not np.isfinite(x).all():
             self.fault(f"non-finite or malformed features {x.tolist()}", now)
             return None
         self.features, self._t_features = x, now
+        self._s_features = now if stamp is None else stamp
         self._arm(now)
         if self._retract_to is None or self.phase not in NEEDS_RESET or self.command is None:
             return None
@@ -281,7 +286,7 @@ class Supervisor:
         self._check(now)
         if not self.active or self.features is None or self.command is None:
             return self.command
-        if now - self._t_features > self.fresh:  # no blind steps (module doc)
+        if (now if stamp is None else stamp) - self._s_features > self.fresh:  # no blind steps
             self.blind += 1
             self._t_sample = None  # the next step is one period, not the blind time
             return self.command

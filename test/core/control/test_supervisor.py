@@ -378,6 +378,7 @@ def test_the_law_steps_the_time_between_sample_stamps() -> None:
         sup.on_features(0.0, np.zeros(5))
         _start(sup, 0.0)
         for k, stamp in enumerate(stamps):
+            sup.on_features(k * DT, np.zeros(5), stamp)  # fresh with each sample
             sup.on_response(k * DT, np.zeros(5), stamp)
         return sup
 
