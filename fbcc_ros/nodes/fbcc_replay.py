@@ -60,9 +60,9 @@ TOLERANCE = 1e-12
 
 #: Where the replay publishes by default: a namespace no cell listens in.
 PREFIX = "/replay"
-#: How long the live graph is looked at before the first message [s] (a running cell's
-#: publishers are discovered within a few hundred milliseconds here), and how often after it.
-DISCOVERY = 1.0
+#: How long the live graph is looked at before the first message [s] (a fresh process found a
+#: running cell's publishers in 1-2 s here), and how often after it.
+DISCOVERY = 2.0
 LOOK_PERIOD = 0.05
 #: What is never published onto the recorded names (``--prefix /``): the arm's commands (ours,
 #: the LBR stack's) and the controller's phase.
@@ -160,20 +160,23 @@ def _wait_for_subscribers(pubs: dict[str, Any], seconds: float | None) -> None:
         time.sleep(0.01)
 
 
-def live_publishers(node: Any, names: list[str]) -> dict[str, list[str]]:
-    """The publishers of the live graph (not ``node``) on each of ``names`` that has any (a
-    count first, ~5 µs a topic: the names only when there are others)."""
+def live_publishers(node: Any, names: list[str], ours: int = 1) -> dict[str, list[str]]:
+    """The publishers of the live graph on each of ``names`` that has more than ``ours`` (this
+    node's own: a count first, ~5 µs a topic; the names only when there are others)."""
     me = (node.get_name(), node.get_namespace())
     found = {}
     for name in names:
-        if node.count_publishers(name) <= 1:  # ours alone
+        if node.count_publishers(name) <= ours:
             continue
-        others = sorted(f"{i.node_namespace.rstrip('/')}/{i.node_name}"
-                        for i in node.get_publishers_info_by_topic(name)
-                        if (i.node_name, i.node_namespace) != me)  # fmt: skip
-        if others:
-            found[name] = others
+        found[name] = sorted(f"{i.node_namespace.rstrip('/')}/{i.node_name}"
+                             for i in node.get_publishers_info_by_topic(name)
+                             if (i.node_name, i.node_namespace) != me)  # fmt: skip
     return found
+
+
+def _named(found: dict[str, list[str]]) -> bool:
+    """Whether DDS has told the names of every publisher found (they lag its discovery)."""
+    return not any("_UNKNOWN_" in n for names in found.values() for n in names)
 
 
 def _live_said(found: dict[str, list[str]]) -> str:
@@ -202,17 +205,23 @@ def republish(
     node = Node("fbcc_replay", context=context)
     root = prefix.rstrip("/")
     try:
-        pubs = {t: node.create_publisher(message_class(bag.topics[t]), root + t,
-                                         _qos(bag.qos.get(t, [])))
-                for t in {m.topic for m in messages}}  # fmt: skip
-        _wait_for_subscribers(pubs, wait_for_subscribers)
-        names = [pub.topic_name for pub in pubs.values()]
-        deadline = time.monotonic() + DISCOVERY  # the live graph, discovered
-        while not (found := live_publishers(node, names)) and time.monotonic() < deadline:
+        chosen = sorted({m.topic for m in messages})
+        names = [node.resolve_topic_name(root + t) for t in chosen]
+        # the live graph, discovered before any publisher of ours exists: a publisher of the
+        # replay on a cell's input would itself fault the cell (one source per input)
+        deadline = time.monotonic() + DISCOVERY
+        while time.monotonic() < deadline:
+            found = live_publishers(node, names, ours=0)
+            if found and _named(found):
+                break
             time.sleep(0.02)
         if found:
             raise InputError("--prefix", prefix, "a namespace without live publishers: "
                              f"{_live_said(found)} publish there now (a cell is running)")
+        pubs = {t: node.create_publisher(message_class(bag.topics[t]), root + t,
+                                         _qos(bag.qos.get(t, [])))
+                for t in chosen}  # fmt: skip
+        _wait_for_subscribers(pubs, wait_for_subscribers)
         t0 = messages[0].log_time_ns
         span = (messages[-1].log_time_ns - t0) * 1e-9 / rate
         sent = 0
