@@ -77,6 +77,9 @@ class StrictLoader(yaml.SafeLoader):
         return super().construct_mapping(node, deep)  # type: ignore[no-any-return]
 
 
+# launch_ros writes the parameter files it hands a node with Python tuples: a list to us
+StrictLoader.add_constructor("tag:yaml.org,2002:python/tuple",
+                             lambda loader, node: loader.construct_sequence(node))  # fmt: skip
 StrictLoader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
     re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
