@@ -88,7 +88,7 @@ class KinematicsNode(Node):
     def on_joints(self, data: bytes) -> None:
         try:
             stamp, q, _ = joints_from_cdr(data, self.stage.joint_names)
-            peg = self.stage.joints(q, stamp)
+            peg = self.stage.joints(q, stamp, self.get_clock().now().nanoseconds * 1e-9)
         except FbccError as exc:
             self.get_logger().warn(f"joint state rejected: {exc}", throttle_duration_sec=1.0)
             return

@@ -21,8 +21,9 @@ import pinocchio as pin
 from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.compensation.compensator import MAX_STAMP_AHEAD
 from fbcc_ros.core.control.supervisor import MAX_PERIODS
-from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.kinematics.cell import CellKinematics, TcpCommand, aligned_hole_at
 from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel, Tool
 from fbcc_ros.core.kinematics.robot import pose as pose_of
@@ -150,8 +151,15 @@ class KinematicsStage:
     def joint_names(self) -> tuple[str, ...]:
         return self.cell.robot.joint_names
 
-    def joints(self, q: ArrayLike, stamp: float | None = None) -> pin.SE3:
-        """The peg's pose in {H}, ``T_H_P``, at the joints ``q`` measured at ``stamp`` [s]."""
+    def joints(self, q: ArrayLike, stamp: float | None = None, received: float | None = None
+               ) -> pin.SE3:  # fmt: skip
+        """The peg's pose in {H}, ``T_H_P``, at the joints ``q`` measured at ``stamp`` [s].
+        ``received``: its arrival, on the clock of the stamps; a stamp more than
+        ``MAX_STAMP_AHEAD`` later raises InputError (the features carry it, and the law judges
+        their freshness by it: a stamp ahead would let it step on features that stopped)."""
+        if stamp is not None and received is not None and stamp > received + MAX_STAMP_AHEAD:
+            raise InputError("header.stamp", stamp, f"at most {MAX_STAMP_AHEAD} s after its "
+                             f"arrival {received:.3f} (a clock ahead of ours)")  # fmt: skip
         peg = self.cell.peg_in_hole(q)
         self.q, self.t_q = np.asarray(q, dtype=float), stamp
         return peg

@@ -48,3 +48,16 @@ def test_the_reach_grows_with_the_age_of_the_measured_joints_up_to_a_bound() -> 
     assert stage.command(far, now=1.003) is not None  # four periods' reach
     assert stage.reach(1.5) == pytest.approx(MAX_REACH_PERIODS * stage.dt)
     assert stage.reach(None) == stage.dt
+
+
+def test_joints_stamped_ahead_of_their_arrival_are_refused() -> None:
+    """A joint state stamped 1 s ahead would make the features look fresh to the law for a
+    second after they stopped: refused, as the compensation refuses such a wrench."""
+    from fbcc_ros.core.errors import InputError
+
+    stage = KinematicsStage(resolve("kinematics", TABLE, {}))
+    q = stage.cell.robot.home
+    stage.joints(q, 10.04, received=10.0)  # within the allowance for two machines' clocks
+    said = r"header\.stamp=11\.0 .*arrival 10\.000 \(a clock ahead of ours\)"
+    with pytest.raises(InputError, match=said):
+        stage.joints(q, 11.0, received=10.0)
