@@ -30,8 +30,8 @@ from fbcc_ros.ros.convert import seconds_to_stamp
 #: two machines' clocks (compensator.MAX_STAMP_AHEAD), so they are taken and the real ones,
 #: stamped earlier, look out of order.
 STRAY_AHEAD = 0.03
-#: A stray publishes at this rate [Hz] (the issue's case: 100 Hz or 1 kHz; both blind a guard
-#: that takes them).
+#: A stray publishes at this rate [Hz] (at 100 Hz or 1 kHz alike, a guard that took its samples
+#: saw only them).
 STRAY_HZ = 100.0
 #: Seconds a frozen node stays frozen (the cases met: 0.3-2 s).
 FROZEN_FOR = 1.0

@@ -102,7 +102,7 @@ class FbccControllerNode(Node):
         levels = {Phase.FAULT: ERROR, Phase.FORCE_LIMIT: WARN, Phase.ABORTED: WARN}
         level = levels.get(self.sup.phase, OK)
         rate = self.stage.input_rate
-        not_armed = self.sup.not_armed(self.now())
+        not_armed = self.not_armed(self.now())
         values = {"phase": self.sup.phase, "reason": self.sup.reason,
                   "armed": not not_armed, "not_armed": not_armed,
                   "contact_state": self._state_said, "input_rate_hz": rate.measured_hz,
@@ -222,11 +222,14 @@ class FbccControllerNode(Node):
         self.stage.close()
         super().destroy_node()
 
+    def not_armed(self, now: float) -> str:
+        """Why a start would be refused (``""``: armed): a second source on an input while it
+        lasts, else the supervisor's reason."""
+        return self.sources.said or self.sup.not_armed(now)
+
     def start_insertion(self, now: float) -> tuple[bool, str]:
-        if self.sources.problems:
-            ok, message = False, "; ".join(self.sources.problems)
-        else:
-            ok, message = self.sup.start(now)
+        said = self.sources.said
+        ok, message = (False, said) if said else self.sup.start(now)
         self.get_logger().info(f"start: {message}")
         self._publish_phase()
         return ok, message

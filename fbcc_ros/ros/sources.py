@@ -42,6 +42,11 @@ class SourceWatch:
         self._said: set[str] = set()
         node.create_timer(PERIOD, self.check)
 
+    @property
+    def said(self) -> str:
+        """The problems seen at the last look, in one line (``""``: none)."""
+        return "; ".join(self.problems)
+
     def _publishers(self, topic: str, mine: bool) -> list[str]:
         """The nodes publishing ``topic``; without ``mine``, this node left out."""
         me = (self.node.get_name(), self.node.get_namespace())

@@ -90,14 +90,14 @@ class WrenchGuard:
         if over.any():
             i = int(np.argmax(over))
             return self.trip(f"raw {_AXES[i]} {reading[i]:.4g} beyond the sensor's range "
-                              f"±{self._range[i]:.4g}")  # fmt: skip
+                             f"±{self._range[i]:.4g}")  # fmt: skip
         if self._last is not None and stamp > self._last[0]:
             rate = np.abs(reading - self._last[1]) / (stamp - self._last[0])
             fast = rate > self._rate
             if fast.any():
                 i = int(np.argmax(fast))
                 return self.trip(f"raw {_AXES[i]} changed at {rate[i]:.4g}/s, faster than "
-                                  f"{self._rate[i]:.4g}/s")  # fmt: skip
+                                 f"{self._rate[i]:.4g}/s")  # fmt: skip
         self._last = (stamp, reading.copy())
         return True
 
@@ -111,7 +111,7 @@ class WrenchGuard:
                                         (m, self.limits.moment_limit, "|m|", "N·m")):
             if size > keep * limit:
                 return self.trip(f"{what} {size:.4g} {unit} over {keep * limit:.4g} {unit}, "
-                                  f"the limit {limit:g} {unit} less its stop margin")
+                                 f"the limit {limit:g} {unit} less its stop margin")
         return True
 
     def tare(self, measured: FloatArray, configured: FloatArray) -> bool:
