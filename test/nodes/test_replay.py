@@ -90,6 +90,7 @@ def _bag_with_only_the_phase(folder: Path) -> Path:
         ("unknown topic", [str(BAG), "--topics", "/nope"], "topics of the bag"),
         ("bad rate", [str(BAG), "--rate", "0"], "--rate"),
         ("bad wait", [str(BAG), "--wait-for-subscribers", "-1"], "--wait-for-subscribers"),
+        ("relative prefix", [str(BAG), "--prefix", "replay"], "--prefix='replay'"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_two(case, args, message, tmp_path: Path) -> None:
