@@ -1,4 +1,5 @@
-"""Recovering a bag whose recorder was killed (SIGKILL) or cut by a full disk.
+"""Recovering a bag whose recorder was killed (SIGKILL) or cut by a full disk, or whose file was
+damaged in its middle.
 
 Such a bag's mcap has no summary and no footer and may end inside a record (a chunk written in
 part); its metadata.yaml lags the file or is missing. rosbags ("File end magic is invalid") and
@@ -14,7 +15,9 @@ file order), the schemas, the channels with their metadata (``offered_qos_profil
 (``fbcc_params.yaml``). Written anew: the ``rosbag2`` record and metadata.yaml; their QoS are
 the channels' as written, in either form of infinite duration (rosbags matches a topic to its
 channel by QoS; :func:`~fbcc_ros.bag.schema.offered_qos` reads both). Lost: the part of the
-file after its last whole record, and mcap's message sequence numbers (rosbag2 writes 0).
+file after its last whole record (for a damaged file with its summary: the chunks that do not
+read, the others found through its index), and mcap's message sequence numbers (rosbag2 writes
+0).
 """
 
 from __future__ import annotations
@@ -50,9 +53,9 @@ class Recovery:
     counts: dict[str, int]  # messages per topic
     start_ns: int | None  # the first log time [ns since the epoch]; None without messages
     end_ns: int  # the last [ns since the epoch]
-    kept_bytes: int  # the source up to the end of its last whole record
-    dropped_bytes: int  # the source after it: a record written in part
-    truncated: str  # why the source ends early
+    kept_bytes: int  # the source's bytes read
+    dropped_bytes: int  # the rest: a record written in part at the tail, or damaged chunks
+    truncated: str  # why the source is not whole
     copied: list[str] = field(default_factory=list)  # the folder's other files
 
 
@@ -65,8 +68,9 @@ def default_out(bag: Path) -> Path:
 
 def is_complete(file: Path) -> bool:
     """Whether the bag of ``file`` needs nothing: mcap's indexed reader opens the file
-    (summary, footer), and the metadata.yaml beside it names the file and counts per topic
-    what the summary's statistics count."""
+    (summary, footer), the metadata.yaml beside it names the file and counts per topic what
+    the summary's statistics count, and every record reads (a chunk damaged in the middle of a
+    closed file does not)."""
     try:
         with file.open("rb") as f:
             summary = make_reader(f).get_summary()
@@ -81,11 +85,15 @@ def is_complete(file: Path) -> bool:
                for c in summary.channels.values()}  # fmt: skip
     info = bag_information(file.parent)
     try:
-        return bool(info["relative_file_paths"] == [file.name]
-                    and counts_of(info) == in_file
-                    and info["message_count"] == stats.message_count)  # fmt: skip
+        in_step = bool(info["relative_file_paths"] == [file.name]
+                       and counts_of(info) == in_file
+                       and info["message_count"] == stats.message_count)  # fmt: skip
     except (KeyError, TypeError):
         return False  # missing or not rosbag2's
+    records = WholeRecords(file)  # every chunk decompresses and checks its CRC
+    for _ in records:
+        pass
+    return in_step and not records.truncated
 
 
 def recover(bag: Path, out: Path | None = None) -> Recovery | None:
@@ -129,8 +137,8 @@ def recover(bag: Path, out: Path | None = None) -> Recovery | None:
         counts=writer.counts(),
         start_ns=writer.start_ns,
         end_ns=writer.end_ns,
-        kept_bytes=records.end,
-        dropped_bytes=source.stat().st_size - records.end,
+        kept_bytes=source.stat().st_size - records.lost_bytes,
+        dropped_bytes=records.lost_bytes,
         truncated=records.truncated,
         copied=copied,
     )

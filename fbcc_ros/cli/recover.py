@@ -41,8 +41,8 @@ def describe(result: Recovery) -> list[str]:
     if result.start_ns is not None:
         lines.append(f"time span: {_time(result.start_ns)} to {_time(result.end_ns)} UTC "
                      f"({(result.end_ns - result.start_ns) / 1e9:.3f} s)")  # fmt: skip
-    lines.append(f"dropped {result.dropped_bytes} bytes at the tail (kept "
-                 f"{result.kept_bytes}): {result.truncated or 'the file was whole'}")  # fmt: skip
+    lines.append(f"dropped {result.dropped_bytes} bytes (kept {result.kept_bytes}): "
+                 f"{result.truncated or 'the file was whole'}")  # fmt: skip
     if result.copied:
         lines.append(f"copied beside it: {', '.join(result.copied)}")
     return lines
@@ -57,8 +57,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     result = recover(args.bag, args.out)
     if result is None:
-        print(f"{args.bag} is complete (summary, footer, metadata.yaml in step): nothing to "
-              "recover, nothing written")  # fmt: skip
+        print(f"{args.bag} is complete (summary, footer, metadata.yaml in step, every chunk "
+              "reads): nothing to recover, nothing written")  # fmt: skip
         return 0
     print("\n".join(describe(result)))
     return 0

@@ -183,8 +183,8 @@ def draw_states(s: Session, nominal: PegHole, path: Path) -> Path:
 def markdown(summary: dict[str, Any]) -> str:
     lines = [f"# Session report: `{summary['bag']}`", ""]
     if summary["truncated"]:
-        lines += [f"**The bag is truncated** ({summary['truncated']}): this report covers what "
-                  "it holds.", ""]  # fmt: skip
+        lines += [f"**The bag is not whole** ({summary['truncated']}): this report covers what "
+                  "it holds; `fbcc-recover` writes it whole.", ""]  # fmt: skip
     lines += [
         f"- duration {summary['duration_s']} s, {summary['samples']} compensated samples, "
         f"{summary['commands']} commands",
@@ -309,8 +309,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     summary = report(args.bag, args.out, args.scenario)
     if summary["truncated"]:
-        print(f"fbcc-report: the bag is TRUNCATED ({summary['truncated']}); the report covers "
-              "what it holds", file=sys.stderr)  # fmt: skip
+        print(f"fbcc-report: the bag is NOT WHOLE ({summary['truncated']}); the report covers "
+              "what it holds (fbcc-recover writes it whole)", file=sys.stderr)  # fmt: skip
     print(f"{summary['final_phase'] or 'no phase recorded'}; {summary['duration_s']} s, "
           f"peak Fz {summary['peak_fz_n']} N; final depth "
           f"{summary['final_features']['l'] * 1e3:.3f} mm; wrote {summary['out']}/")  # fmt: skip

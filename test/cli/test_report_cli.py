@@ -106,7 +106,7 @@ def test_a_cut_bag_is_reported_as_truncated(tmp_path: Path, capfd) -> None:
     (cut / whole.name).write_bytes(data[: int(len(data) * 0.7)])
     shutil.copy(BAG / "fbcc_params.yaml", cut)
     assert report.main([str(cut), "--out", str(tmp_path / "r")]) == 0
-    assert "TRUNCATED" in capfd.readouterr().err
+    assert "NOT WHOLE" in capfd.readouterr().err
     summary = json.loads((tmp_path / "r" / "summary.json").read_text())
     assert summary["truncated"] and 0 < summary["commands"] < read_bag(BAG).counts["/fbcc/command"]
 

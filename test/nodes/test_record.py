@@ -114,10 +114,10 @@ def test_a_killed_recorder_leaves_a_readable_truncated_bag_the_report_says_so(
                            "--scenario", str(scenario)], cwd=ROOT, capture_output=True,
                           text=True, timeout=120)  # fmt: skip
     assert proc.returncode == 0, proc.stderr
-    assert "TRUNCATED" in proc.stderr
+    assert "NOT WHOLE" in proc.stderr
     summary = json.loads((out / "summary.json").read_text())
     assert summary["truncated"] == bag.truncated
-    assert "**The bag is truncated**" in (out / "summary.md").read_text()
+    assert "**The bag is not whole**" in (out / "summary.md").read_text()
     # the last phase the bag holds, not the run's (the ramp may end right at the kill)
     phases = [cdr.decode_string(m.data) for m in bag.messages if m.topic == "/fbcc/phase"]
     assert phases[-1] in ("inserting", "inserted") and summary["final_phase"] == phases[-1]
