@@ -12,7 +12,7 @@ setup(
     packages=find_packages(exclude=["test", "test.*"]),
     # The iiwa URDF travels with the code that loads it, and is also installed to share/ for
     # robot_state_publisher and visualisers.
-    package_data={PACKAGE: ["urdf/*.urdf"]},
+    package_data={PACKAGE: ["urdf/*.urdf", "ros/*.xml"]},
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
@@ -40,11 +40,11 @@ setup(
             "fbcc-report = fbcc_ros.cli.report:main",
             "fbcc-recover = fbcc_ros.cli.recover:main",
             "fbcc_bringup = fbcc_ros.nodes.bringup:main",
-            "dynamic_compensation = fbcc_ros.nodes.dynamic_compensation:main",
-            "kinematics = fbcc_ros.nodes.kinematics:main",
-            "fbcc_controller = fbcc_ros.nodes.fbcc_controller:main",
-            "mock_cell = fbcc_ros.nodes.mock_cell:main",
-            "fbcc_record = fbcc_ros.nodes.fbcc_record:main",
+            "dynamic_compensation = fbcc_ros.ros.process:dynamic_compensation",
+            "kinematics = fbcc_ros.ros.process:kinematics",
+            "fbcc_controller = fbcc_ros.ros.process:fbcc_controller",
+            "mock_cell = fbcc_ros.ros.process:mock_cell",
+            "fbcc_record = fbcc_ros.ros.process:fbcc_record",
             "fbcc_replay = fbcc_ros.nodes.fbcc_replay:main",
         ],
     },

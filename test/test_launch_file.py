@@ -34,7 +34,8 @@ def test_the_launch_file_builds_its_nodes_from_the_cell_description() -> None:
 def test_ros2_launch_rehearses_the_lbr_stack_and_assembles(tmp_path: Path) -> None:
     """The LBR rehearsal (100 Hz, in /lbr, the model from the mock's robot_description),
     started by ``ros2 launch``, started through ``/lbr/fbcc/start``: the phase reaches
-    ``inserted``. A private ROS_DOMAIN_ID keeps it off other runs."""
+    ``inserted``; then Ctrl-C ends every node cleanly. A private ROS_DOMAIN_ID keeps it off
+    other runs."""
     env = dict(os.environ, ROS_DOMAIN_ID="73")
     launch = subprocess.Popen(
         ["ros2", "launch", "fbcc_ros", "fbcc_cell.launch.py", "profile:=lbr",
@@ -53,6 +54,10 @@ def test_ros2_launch_rehearses_the_lbr_stack_and_assembles(tmp_path: Path) -> No
     log = (tmp_path / "launch.log").read_text(errors="replace")
     assert phase == "inserted", log[-3000:]
     assert "robot model from /lbr/robot_description" in log
+    # Ctrl-C (SIGINT to the whole group, as a terminal sends it): every node ends cleanly
+    assert "process has died" not in log and "[ERROR]" not in log, log[-3000:]
+    started = log.count("process started with pid")
+    assert started >= 4 and log.count("process has finished cleanly") == started, log[-3000:]
 
 
 def _run_until_inserted(env: dict[str, str]) -> str:

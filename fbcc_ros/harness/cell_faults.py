@@ -73,7 +73,7 @@ class Stray(Node):
             arm's joint positions as last heard: a node that "holds" the arm, left running).
     """
 
-    def __init__(self, run: Any, topic: str, kind: str, frame: str = "ft_sensor") -> None:
+    def __init__(self, run: Any, topic: str, kind: str, frame: str) -> None:
         super().__init__("stray_publisher", context=run.context, namespace=run.namespace)
         self.kind, self.frame = kind, frame
         self.heard: tuple[list[str], np.ndarray] | None = None
@@ -163,10 +163,16 @@ def frozen(name: str) -> Injection:
     return inject
 
 
+def bias(run: Any) -> tuple[list[float], str]:
+    """The compensation's bias and the sensor's frame, from its latched ``ft_sensor/bias``."""
+    msg = run.heard(WrenchStamped, topics.BIAS, topics.PHASE_QOS)
+    f, m = msg.wrench.force, msg.wrench.torque
+    return [f.x, f.y, f.z, m.x, m.y, m.z], msg.header.frame_id
+
+
 def stray(topic: str, kind: str) -> Injection:
     def inject(run: Any, watch: Any, bag: Path | None) -> None:
-        frame = run.nodes["dynamic_compensation"].stage.setup.frame if kind == "wrench" else ""
-        stray = Stray(run, topic, kind, frame or "ft_sensor")
+        stray = Stray(run, topic, kind, bias(run)[1] if kind == "wrench" else "")
         run.spin_for(STRAY_FOR, _quiet)
         stray.stop()
         watch.said.append(f"a stray node published {stray.sent} messages on {topic} "
@@ -177,8 +183,8 @@ def stray(topic: str, kind: str) -> Injection:
 
 def replay_beside_drill(run: Any, watch: Any, bag: Path | None) -> None:
     """Another session's bag replayed onto the recorded names beside the running cell."""
-    mock = run.nodes["mock_cell"].cell
-    status, last = replay_beside(run, list(mock.robot.joint_names), np.asarray(mock.q),
+    arm = run.heard(JointState, topics.JOINT_STATES)
+    status, last = replay_beside(run, list(arm.name), np.asarray(arm.position),
                                  ["--prefix", "/", "--rate", "1"])  # fmt: skip
     watch.said.append(f"fbcc_replay OTHER_BAG --prefix / beside the cell: exit {status}: {last}")
     if status != 0:

@@ -38,7 +38,7 @@ class NodeSpec:
     (applied after its parameter ``files``), whether it runs in its own process even when the
     others share this one (the recorder: its disk writes stay off the loop's core), its
     namespace, and the command line that runs it as a process (``python -m`` and its
-    arguments; default ``fbcc_ros.nodes.<name>``)."""
+    arguments; default ``fbcc_ros.nodes <name>``, as its console script runs it)."""
 
     name: str
     factory: Callable[..., Any]
@@ -177,23 +177,62 @@ class CellRun:
             if only is None:
                 self.chained.append(f"{up_name}.{outlet} -> {down_name}.{callback}")
 
-    def restart(self, name: str, parameters: dict[str, Any] | None = None) -> None:
-        """Kills the node ``name`` of this process and starts it anew (with ``parameters``
-        changed, if given) while the others run on, then links it into the chain in its old
-        place. It is built in a thread as this one spins: beside running nodes, as a restarted
-        process comes up, but with its modules already imported, sharing the GIL with the loop
-        and chained without DDS discovery (so faster than a process restarts)."""
-        import gc
-        import threading
+    def restart(self, name: str, parameters: dict[str, Any] | None = None,
+                timeout: float = 30.0) -> None:  # fmt: skip
+        """Kills the node ``name`` and starts it anew (with ``parameters`` changed, if given)
+        while the others run on; returns once it is up (its parameter services answer).
 
+        A process is killed by SIGKILL, as a crash ends it (no goodbye to DDS: its endpoints
+        stay in the graph until its lease ends), and started again. A node of this process is
+        destroyed, built in a thread as this one spins, and linked into the chain in its old
+        place: beside running nodes, as a restarted process comes up, but with its modules
+        already imported, sharing the GIL with the loop and chained without DDS discovery (so
+        faster than a process restarts)."""
         spec = next((s for s in self.specs if s.name == name), None)
-        if spec is None or name not in self.nodes:
-            raise FbccError(f"cannot restart {name}: not a node of this process "
-                            f"({sorted(self.nodes)})")  # fmt: skip
+        if spec is None or name not in {*self.nodes, *self.procs}:
+            raise FbccError(f"cannot restart {name}: not a node of this cell "
+                            f"({sorted({*self.nodes, *self.procs})})")  # fmt: skip
         if parameters:
             index = self.specs.index(spec)
             spec = self.specs[index] = replace(spec, parameters={**spec.parameters,
                                                                  **parameters})  # fmt: skip
+        if name in self.procs:
+            self._respawn(spec, timeout)
+        else:
+            self._rebuild(spec)
+
+    def _respawn(self, spec: NodeSpec, timeout: float) -> None:
+        from rcl_interfaces.srv import GetParameters
+
+        old = self.procs.pop(spec.name)
+        old.kill()
+        old.wait()
+        with (self.log_dir / f"{spec.name}.log").open("ab") as log:
+            log.write(b"\n--- killed (SIGKILL) and started anew ---\n")
+        self._spawn(spec, append=True)
+        # up when its own services answer (the dead one's endpoints may still be in the graph)
+        client = self.observer.create_client(
+            GetParameters, f"{spec.namespace.rstrip('/')}/{spec.name}/get_parameters")
+        deadline = time.monotonic() + timeout
+        try:
+            while True:  # a request sent before the new one was matched is answered by none
+                future = client.call_async(GetParameters.Request(names=["use_sim_time"]))
+                end = time.monotonic() + 1.0
+                while not future.done() and time.monotonic() < end:
+                    self.executor.spin_once(timeout_sec=0.01)
+                if future.done():
+                    return
+                self.check_alive()
+                if time.monotonic() > deadline:
+                    raise FbccError(f"{spec.name} did not come up within {timeout:g} s")
+        finally:
+            self.observer.destroy_client(client)
+
+    def _rebuild(self, spec: NodeSpec) -> None:
+        import gc
+        import threading
+
+        name = spec.name
         old = self.nodes.pop(name)
         for up_name, outlet, down_name, _ in CHAIN:  # nothing calls into the dead node
             if down_name == name and hasattr(self.nodes.get(up_name), outlet):
@@ -239,15 +278,15 @@ class CellRun:
         self.executor.add_node(self.nodes[name])
         self._chain(only=name)
 
-    def _spawn(self, spec: NodeSpec) -> None:
+    def _spawn(self, spec: NodeSpec, append: bool = False) -> None:
         self.log_dir.mkdir(parents=True, exist_ok=True)
         files = [arg for f in spec.files for arg in ("--params-file", str(f))]
-        module = spec.module or (f"fbcc_ros.nodes.{spec.name}",)
+        module = spec.module or ("fbcc_ros.nodes", spec.name)
         cmd = [sys.executable, "-m", *module, "--ros-args", *files,
                *ros_args(spec.parameters)[1:]]  # the files, then the values over them
         if spec.namespace:
             cmd += ["-r", f"__ns:={spec.namespace}"]
-        with (self.log_dir / f"{spec.name}.log").open("wb") as log:
+        with (self.log_dir / f"{spec.name}.log").open("ab" if append else "wb") as log:
             self.procs[spec.name] = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT)
 
     def check_alive(self) -> None:
@@ -284,6 +323,25 @@ class CellRun:
         future = client.call_async(Trigger.Request() if request is None else request)
         self.spin_until(future.done, timeout, f"no answer from {name}")
         return future.result()
+
+    def heard(self, kind: Any, topic: str, qos: Any = 10, timeout: float = 5.0) -> Any:
+        """The next message on ``topic`` (relative: in the cell's namespace), the cell running
+        meanwhile; with a latched ``qos``, the last one sent."""
+        got: list[Any] = []
+        sub = self.observer.create_subscription(kind, topic, got.append, qos)
+        try:
+            self.spin_until(lambda: bool(got), timeout, f"no message on {topic}")
+        finally:
+            self.observer.destroy_subscription(sub)
+        return got[0]
+
+    def fresh_status(self, nodes: tuple[str, ...], timeout: float = 3.0) -> None:
+        """Spins until each of ``nodes`` has sent its ``/diagnostics`` after this call (they
+        send once a second): what they report then covers all that came before."""
+        since = time.monotonic()
+        status = self.observer.status
+        self.spin_until(lambda: all(status.get(n, (0.0,))[0] > since for n in nodes), timeout,
+                        f"no /diagnostics from all of {', '.join(nodes)}")  # fmt: skip
 
     def cpu(self) -> dict[str, float]:
         """CPU seconds so far (diff two calls for a window): per node, the observer's callbacks,

@@ -19,8 +19,14 @@ What it reports (:meth:`DrillWatch.result`, the summary's ``fault_drill``):
   else what a node warned of (a sensor's rate, the recorder's stop);
 * the largest true contact force |f| and moment |m| about the {H} origin (kept by the mock's
   plant at every step, so no sample the loop drops is missed) against the running wrench
-  guard's limits, and the largest joint-command step as a fraction of one period's travel at
-  the joint velocity limits (:class:`StepMeter`);
+  guard's limits, and the largest step between the joint commands the mock arm received, as a
+  fraction of one period's travel at the joint velocity limits (a position-controlled arm
+  applies each command within a cycle, however long it was in coming);
+* holding at the end, how far the arm's measured pose is from the hold.
+
+All of it is read from the cell's topics and its nodes' ``/diagnostics`` (the mock's truth, the
+guard's limits, the controller's tracking error, the samples rejected), so a drill runs alike
+with the nodes in this process or each in its own (``--processes``).
 * whether the bag is complete and consistent (read back: its metadata counts what the file
   holds).
 
@@ -39,17 +45,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-from std_msgs.msg import Float64MultiArray
-
-from fbcc_ros.core.arrays import FloatArray
-from fbcc_ros.core.compensation.wrench_guard import GuardLimits
 from fbcc_ros.core.control.phase import ACTIVE, NEEDS_RESET, Phase
 from fbcc_ros.core.errors import FbccError
 from fbcc_ros.core.sim.sensor_faults import SENSOR_FAULTS
 from fbcc_ros.harness import cell_faults as cell
 from fbcc_ros.ros import topics
-from fbcc_ros.ros.convert import positions_from_cdr
 
 #: Seconds of insertion before the fault: the peg is a few millimetres into the hole.
 INJECT_AT = 1.0
@@ -58,37 +58,16 @@ INJECT_AT = 1.0
 HOLD_FOR = 0.5
 #: The arm ends within this of its hold [m] (offsets and depth: measured against the hold).
 HOLD_TOLERANCE = 5e-5
-#: Seconds a drill waits after a reset for the controller to say ``armed`` (a guard re-arms on
-#: the reset, then its wrench comes) before it starts, as an operator watching the phase would.
-REARM_WAIT = 1.0
+#: Seconds a drill waits, resetting, for the controller to say it is armed before it starts, as
+#: an operator watching it would: a guard re-arms on the reset, then its wrench comes; a node
+#: killed and started anew leaves its dead process's endpoints in the graph for up to its DDS
+#: lease (3 s, ``ros/fastdds.xml``), a second source the controller will not start beside.
+REARM_WAIT = 6.0
+#: The nodes whose /diagnostics a drill reads (by name).
+MOCK, COMPENSATION, CONTROLLER = "mock_cell", "dynamic_compensation", "fbcc_controller"
 #: The recorder's file may grow this much past its size at the injection [bytes]: less than a
 #: chunk, so the next chunk's write fails.
 DISK_LEFT = 64 * 1024
-
-
-class StepMeter:
-    """The largest step between two successive joint commands, as a fraction of one control
-    period's travel at the joint velocity limits: a position-controlled arm (FRI, a forward
-    position controller) applies each command within a cycle, however long it was in coming.
-
-    Args:
-        node: The node to subscribe ``joint_command`` on.
-        velocity_limit: The joints' velocity limits [rad/s].
-        dt: The control period [s].
-    """
-
-    def __init__(self, node: Any, velocity_limit: FloatArray, dt: float) -> None:
-        self.limit = np.asarray(velocity_limit, dtype=float) * dt
-        self.worst = 0.0
-        self._last: FloatArray | None = None
-        node.create_subscription(Float64MultiArray, topics.JOINT_COMMAND, self.on_command, 100,
-                                 raw=True)  # fmt: skip
-
-    def on_command(self, data: bytes) -> None:
-        q = positions_from_cdr(data)
-        if self._last is not None and q.shape == self._last.shape:
-            self.worst = max(self.worst, float(np.max(np.abs(q - self._last) / self.limit)))
-        self._last = q
 
 
 @dataclasses.dataclass
@@ -104,7 +83,10 @@ class DrillWatch:
     injected_at: float = 0.0  # system time [s]
     #: the true contact's largest |f| [N] and |m| about the {H} origin [N·m] (the mock's)
     peak: tuple[float, float] = (0.0, 0.0)
-    guard: GuardLimits = dataclasses.field(default_factory=GuardLimits)  # the running one's
+    #: the running wrench guard's limits on |f| [N] and |m| [N·m]
+    limits: tuple[float, float] = (0.0, 0.0)
+    #: the largest joint-command step the arm received, in periods' travel
+    joint_step: float = 0.0
     #: at the end, holding: how far the arm's measured pose is from the held command (the
     #: largest of dx, dy, l) [m]; None when not holding or not known
     hold_error: float | None = None
@@ -116,16 +98,16 @@ class DrillWatch:
             return "aborted"
         return "recovered" if phase in ACTIVE else "held"  # idle: the arm holds its command
 
-    def result(self, phase: str, joint_step: float, bag: dict[str, Any] | None
-               ) -> dict[str, Any]:  # fmt: skip
+    def result(self, phase: str, bag: dict[str, Any] | None) -> dict[str, Any]:
         """The summary's ``fault_drill`` (module doc); ``bag`` the bringup's ``bag``."""
         drill = DRILLS[self.name]
-        (force, moment), guard = self.peak, self.guard
+        (force, moment), (force_limit, moment_limit) = self.peak, self.limits
+        joint_step = self.joint_step
         unsafe = []
-        if force > guard.force_limit:
-            unsafe.append(f"true |f| {force:.1f} N over {guard.force_limit:g} N")
-        if moment > guard.moment_limit:
-            unsafe.append(f"true |m| {moment:.2f} N·m over {guard.moment_limit:g} N·m")
+        if force > force_limit:
+            unsafe.append(f"true |f| {force:.1f} N over {force_limit:g} N")
+        if moment > moment_limit:
+            unsafe.append(f"true |m| {moment:.2f} N·m over {moment_limit:g} N·m")
         if joint_step > 1.0:
             unsafe.append(f"a joint-command step {joint_step:.2f} times one period's travel")
         if self.hold_error is not None and self.hold_error > HOLD_TOLERANCE:
@@ -160,9 +142,9 @@ class DrillWatch:
             "reports": self.reports,
             "final_phase": phase,
             "peak_force": round(force, 2),
-            "force_limit": guard.force_limit,
+            "force_limit": force_limit,
             "peak_moment": round(moment, 3),
-            "moment_limit": guard.moment_limit,
+            "moment_limit": moment_limit,
             "joint_step": round(joint_step, 3),
             "hold_error": None if self.hold_error is None else round(self.hold_error, 7),
             "bag": recorded,
@@ -227,7 +209,7 @@ def _restart(name: str, **parameters: Any) -> Callable[[Any, DrillWatch, Path | 
 def _compensation_restart(run: Any, watch: DrillWatch, bag: Path | None) -> None:
     """Restarted with the bias it had measured (as an operator passes it from ft_sensor/bias):
     no tare under load."""
-    bias = run.nodes["dynamic_compensation"].stage.comp.bias
+    bias = cell.bias(run)[0]
     _restart("dynamic_compensation", bias=[float(b) for b in bias], tare_samples=0)(
         run, watch, bag)
 
@@ -340,50 +322,49 @@ def run_drill(run: Any, name: str, duration: float, bag: Path | None,
     if observer.phase != Phase.INSERTING:
         raise FbccError(f"fault drill {name}: the insertion was not running when the fault "
                         f"was due ({stage_said(observer)})")
-    comp = run.nodes.get("dynamic_compensation")
-    counts = _rejections(comp)
+    counts = _rejections(observer.values(COMPENSATION))
     first_phase = len(observer.phases)
     print(f"  fault drill {name}: {drill.what}", flush=True)
     watch.injected_at = time.time()
     drill.inject(run, watch, bag)
     if drill.resume:
         run.spin_for(HOLD_FOR, clock)
-        if observer.phase in NEEDS_RESET:
-            _call(run, watch, "reset")
-            _wait(run, lambda: observer.phase == Phase.ARMED, REARM_WAIT)  # as an operator
-        if observer.phase not in ACTIVE and _call(run, watch, "start"):
-            run.spin_until(lambda: observer.phase == Phase.INSERTING, 2.0, "no phase inserting")
+        _resume(run, watch)
     run.spin_for(duration, clock)  # a resumed insertion has its whole time
-    controller = run.nodes.get("fbcc_controller")
-    mismatch = controller.stage.input_rate.mismatch() if controller is not None else ""
-    if mismatch:
-        watch.reports.append(mismatch)
+    run.fresh_status((MOCK, COMPENSATION, CONTROLLER))  # reports that cover the whole run
+    mock, comp, controller = (observer.values(n) for n in (MOCK, COMPENSATION, CONTROLLER))
+    if controller.get("warnings"):  # a sensor's rate, and the like
+        watch.reports.append(controller["warnings"])
     log = run.log_dir / "fbcc_record.log"  # the recorder's own process
     if "fbcc_record" in run.procs and log.exists():
         said = log.read_text(errors="replace").splitlines()
         watch.reports += [line.split("]: ", 1)[-1] for line in said if "recording stopped" in line]
-    # a restarted compensation counts from zero: its counts add to what the killed one added
-    now = run.nodes.get("dynamic_compensation")
-    old = _rejections(comp) if now is not comp else {}
-    after = {k: v + old.get(k, 0) for k, v in _rejections(now).items()}
+    after = _rejections(comp)  # summed over a restart (the observer's)
     watch.rejected = {k: after[k] - counts.get(k, 0) for k in after
                       if after[k] > counts.get(k, 0)}  # fmt: skip
     watch.faults = [p for p in observer.phases[first_phase:] if ":" in p]
-    if controller is not None:
-        sup = controller.sup
-        if sup.phase in (*NEEDS_RESET, Phase.ABORTED) and sup.features is not None \
-                and sup.command is not None:  # fmt: skip
-            watch.hold_error = float(np.abs(sup.features - sup.command)[:3].max())
-    watch.peak = tuple(float(v) for v in run.nodes["mock_cell"].cell.peak)  # type: ignore[assignment]
-    watch.guard = now.stage.setup.guard if now is not None else watch.guard
+    if observer.phase in (*NEEDS_RESET, Phase.ABORTED):
+        watch.hold_error = controller.get("tracking_error")
+    watch.peak = (float(mock["true_peak_force"]), float(mock["true_peak_moment"]))
+    watch.joint_step = float(mock["largest_command_step"])
+    watch.limits = (float(comp["force_limit"]), float(comp["moment_limit"]))
     return watch
 
 
-def _wait(run: Any, done: Callable[[], bool], seconds: float) -> None:
-    """Spins until ``done`` or ``seconds`` have passed (not an error: the drill goes on)."""
-    deadline = time.monotonic() + seconds
-    while not done() and time.monotonic() < deadline:
-        run.executor.spin_once(timeout_sec=0.01)
+def _resume(run: Any, watch: DrillWatch) -> None:
+    """What an operator does once the fault has passed: a fault is acknowledged (reset) until
+    the controller says it is armed (its ``/diagnostics``), for at most :data:`REARM_WAIT`;
+    then, unless the insertion went on by itself, a start."""
+    observer = run.observer
+    deadline = time.monotonic() + REARM_WAIT
+    while observer.phase not in ACTIVE and time.monotonic() < deadline:
+        if observer.phase in NEEDS_RESET:
+            _call(run, watch, "reset")
+        run.fresh_status((CONTROLLER,))
+        if observer.values(CONTROLLER).get("armed") is True:
+            break
+    if observer.phase not in ACTIVE and _call(run, watch, "start"):
+        run.spin_until(lambda: observer.phase == Phase.INSERTING, 2.0, "no phase inserting")
 
 
 def stage_said(observer: Any) -> str:
@@ -391,8 +372,7 @@ def stage_said(observer: Any) -> str:
     return f"{observer.phase}: {observer.reason}" if observer.reason else str(observer.phase)
 
 
-def _rejections(node: Any) -> dict[str, int]:
-    """A compensation node's rejected-sample counts (none without one)."""
-    if node is None:
-        return {}
-    return {k: v for k, v in node.stage.comp.counts.items() if k not in ("accepted", "taring")}
+def _rejections(values: dict[str, Any]) -> dict[str, int]:
+    """The rejected-sample counts of a compensation node's ``/diagnostics`` values."""
+    kept = ("accepted", "taring", "force_limit", "moment_limit")
+    return {k: v for k, v in values.items() if isinstance(v, int) and k not in kept}

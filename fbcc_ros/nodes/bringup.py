@@ -40,7 +40,7 @@ from fbcc_ros.core.sim.simulation import score
 from fbcc_ros.harness.cell_nodes import CellSetup, deadband_warnings, profile_of
 from fbcc_ros.harness.cell_nodes import cell_nodes as harness_cell_nodes
 from fbcc_ros.harness.cell_run import CellRun, NodeSpec
-from fbcc_ros.harness.fault_drill import DRILLS, StepMeter, describe, run_drill
+from fbcc_ros.harness.fault_drill import DRILLS, describe, run_drill
 from fbcc_ros.nodes.fbcc_record import CELL_TOPICS, default_folder
 from fbcc_ros.ros import topics
 
@@ -266,9 +266,6 @@ def run_cell(
                  command_topic=topics.joint_command(sc.cell.conventions)) as run:
         if bag is not None or wait_for_recorder:
             wait_recording(run, 30.0, recorded)
-        if fault:
-            kinematics = run.nodes["kinematics"].stage
-            meter = StepMeter(run.observer, kinematics.cell.robot.velocity_limit, kinematics.dt)
         start_insertion(run, timeout=30.0 if processes else 10.0)
         obs = run.observer
         first = len(obs.truth)
@@ -307,7 +304,7 @@ def run_cell(
         write_parameters(bag, specs)
         summary["bag"] = bag_contents(bag)
     if fault:
-        summary["fault_drill"] = watch.result(phase, meter.worst, summary.get("bag"))
+        summary["fault_drill"] = watch.result(phase, summary.get("bag"))
     return summary
 
 
@@ -342,9 +339,6 @@ def main(argv: list[str] | None = None) -> int:
     if args.fault is not None:
         if args.fault not in DRILLS:
             raise InputError("--fault", args.fault, f"one of {list(DRILLS)} or list")
-        if args.processes:
-            raise InputError("--fault", args.fault, "without --processes (a drill restarts "
-                             "nodes of the bringup's own process)")  # fmt: skip
         if args.fault == "disk-full" and args.no_record:
             raise InputError("--fault", args.fault, "a recorded run (without --no-record)")
     if args.seed < 0:

@@ -76,8 +76,13 @@ class DynamicCompensationNode(Node):
         self.sources = SourceWatch(self, inputs, (), self.on_source)
         counts = self.stage.comp.counts
         rejected = tuple(k for k in counts if k not in ("accepted", "taring"))
-        publish_diagnostics(self, counter_report(lambda: self.stage.comp.counts, rejected,
-                                                 "samples"))  # fmt: skip
+        publish_diagnostics(self, counter_report(self._counts, rejected, "samples"))
+
+    def _counts(self) -> dict[str, float]:
+        """The samples' counts, and the limits the running wrench guard holds."""
+        guard = self.stage.setup.guard
+        return {**self.stage.comp.counts, "force_limit": guard.force_limit,
+                "moment_limit": guard.moment_limit}
 
     @property
     def _names(self) -> tuple[str, ...]:

@@ -23,6 +23,7 @@ import time
 from typing import Any
 
 from geometry_msgs.msg import PoseStamped, WrenchStamped
+from rclpy.duration import Duration as Timeout
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from std_msgs.msg import Float64MultiArray, String
@@ -40,6 +41,7 @@ from fbcc_ros.ros.convert import pose_from_cdr, pose_to_cdr, wrench_from_cdr
 from fbcc_ros.ros.diagnostics import ERROR, OK, WARN, publish_diagnostics
 from fbcc_ros.ros.outlet import Outlet
 from fbcc_ros.ros.params import declare, run
+from fbcc_ros.ros.process import ACKED_WITHIN
 from fbcc_ros.ros.sources import SourceWatch
 
 __all__ = ["TABLE", "FbccControllerNode"]
@@ -107,18 +109,27 @@ class FbccControllerNode(Node):
                   "armed": not not_armed, "not_armed": not_armed,
                   "contact_state": self._state_said, "input_rate_hz": rate.measured_hz,
                   "late_samples": self.sup.late, "stalls": self.sup.stalls,
-                  "blind_samples": self.sup.blind}  # fmt: skip
+                  "blind_samples": self.sup.blind,
+                  "tracking_error": self._tracking_error()}  # fmt: skip
         worker = self.stage.state_worker
         if worker is not None:
             values["state_estimates_behind"] = worker.behind
             values["state_samples_dropped"] = worker.dropped
         said, warnings = self.stage.said, self.stage.warnings()
+        values["warnings"] = "; ".join(warnings)
         for warning in set(warnings) - self._warned:  # each said once, when it starts
             self.get_logger().warn(warning)
         self._warned = set(warnings)
         if warnings and level == OK:
             level, said = WARN, "; ".join([said, *warnings])
         return level, said, values
+
+    def _tracking_error(self) -> float | None:
+        """How far the measured pose is from the command: the largest of the offsets' and the
+        depth's differences [m] (holding: from the hold); None before both are known."""
+        if self.sup.features is None or self.sup.command is None:
+            return None
+        return round(float(abs(self.sup.features - self.sup.command)[:3].max()), 9)
 
     def now(self) -> float:
         """The supervisor's clock: steady, so that no parameter (``use_sim_time``) and no
@@ -217,6 +228,19 @@ class FbccControllerNode(Node):
             self._state_filter_gone = True  # said once; the loop goes on without it
             self.get_logger().error(f"contact-state filter ended (exit status "
                                     f"{worker.exit_code}): fbcc/contact_state_estimate stops")
+
+    def on_shutdown(self) -> None:
+        """Stopped while inserting (SIGINT, SIGTERM: ``run``), it aborts and sends a hold at
+        the last measured pose: the insertion does not go on without it."""
+        if not self.sup.active or self.sup.features is None:
+            return
+        self.sup.abort("the controller node stopped")
+        self.out_command.publish(pose_to_cdr(self.stage.pose(self.sup.features),
+                                             self.hole_frame, self.stamp_now()))  # fmt: skip
+        self._publish_phase()
+        self.get_logger().info("stopping while inserting: aborted, held at the measured pose")
+        for pub in (self.out_command.publisher, self.pub_phase):
+            pub.wait_for_all_acked(Timeout(seconds=ACKED_WITHIN))
 
     def destroy_node(self) -> None:
         self.stage.close()

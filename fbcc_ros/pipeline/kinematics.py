@@ -172,6 +172,16 @@ class KinematicsStage:
             return None
         return self.cell.pose_solution(peg_in_hole, self.q, self.reach(now))
 
+    def hold(self) -> TcpCommand | None:
+        """The last measured joints as a command: the arm stays where it was measured (a
+        node that stops while the arm moves leaves no step toward a command it no longer
+        follows); None before any joints were measured."""
+        if self.q is None:
+            return None
+        robot = self.cell.robot
+        return TcpCommand(self.q.copy(), robot.flange_in_base(self.q), robot.peg_in_base(self.q),
+                          iterations=0)
+
     def reach(self, now: float | None) -> float:
         """The time [s] the arm has to reach a command solved at ``now``: since its joints were
         measured, plus one period; one period without times, at most MAX_REACH_PERIODS."""

@@ -4,7 +4,7 @@ aggregator read. The topic is absolute, as those tools expect."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -37,11 +37,11 @@ def publish_diagnostics(
 
 
 def counter_report(
-    counts: Callable[[], dict[str, int]], bad: tuple[str, ...], what: str
+    counts: Callable[[], Mapping[str, float]], bad: tuple[str, ...], what: str
 ) -> Callable[[], tuple[bytes, str, dict[str, Any]]]:
     """A report of running counters: WARN while any of the ``bad`` ones grew in the last
     period (the message says which, by how much), OK otherwise."""
-    last: dict[str, int] = {}
+    last: dict[str, float] = {}
 
     def report() -> tuple[bytes, str, dict[str, Any]]:
         now = dict(counts())

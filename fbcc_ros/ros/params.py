@@ -21,6 +21,7 @@ from fbcc_ros.core.errors import FbccError, one_line
 from fbcc_ros.core.files import read_yaml
 from fbcc_ros.pipeline.parameters import Param, unknown_names
 from fbcc_ros.ros.executor import make_executor
+from fbcc_ros.ros.process import StopSignalError, catch_signals, short_lease
 
 #: The clock source: set at start-up only. Switched on a running node (with no ``/clock``) its
 #: clock read 0 and no stamp looked stale; the watchdogs run on a steady clock regardless.
@@ -114,9 +115,10 @@ def run(node_factory: Callable[[], Node]) -> None:
     or a file the node cannot make (the recorder's bag folder), ends the process with exit
     status 2 and one line naming the value and what is allowed.
     SIGINT and SIGTERM end the spin between callbacks (rclpy's own handlers would raise inside
-    a callback), then the node is destroyed and the process exits 0.
+    a callback), then the node's ``on_shutdown`` runs (if it has one: the hold of a node that
+    moves the arm), the node is destroyed and the process exits 0; one that comes while the
+    node is built (waiting for its robot model) ends it there (:mod:`fbcc_ros.ros.process`).
     """
-    import signal
     import sys
 
     import rclpy
@@ -128,9 +130,10 @@ def run(node_factory: Callable[[], Node]) -> None:
     from rclpy.signals import SignalHandlerOptions
 
     name = getattr(node_factory, "__name__", "node")
-    stop: list[int] = []
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda number, _: stop.append(number))
+    stop = catch_signals()
+    short_lease()
+    if stop:  # a signal while the node's modules loaded
+        return
     try:
         for file in params_files(sys.argv):  # read strictly before rcl reads them
             read_yaml(file, "--params-file")
@@ -147,6 +150,8 @@ def run(node_factory: Callable[[], Node]) -> None:
     try:
         try:
             node = node_factory()
+        except StopSignalError:  # a signal while it waited for its robot model
+            return
         except (FbccError, ParameterException, OSError) as exc:  # OSError: the recorder's bag
             said = str(exc) if isinstance(exc, ParameterException) else one_line(exc)
             print(f"{name}: {said}", file=sys.stderr)
@@ -156,6 +161,8 @@ def run(node_factory: Callable[[], Node]) -> None:
         settle([node])
         while not stop and rclpy.ok():
             executor.spin_once(timeout_sec=0.1)
+        if hasattr(node, "on_shutdown"):  # a hold, if it was moving the arm
+            node.on_shutdown()
     finally:
         if node is not None:
             node.destroy_node()

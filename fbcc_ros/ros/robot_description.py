@@ -20,6 +20,7 @@ from std_msgs.msg import String
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.pipeline.kinematics import DESCRIPTION, needs_description
 from fbcc_ros.ros import topics
+from fbcc_ros.ros.process import StopSignalError, stopping
 
 #: How robot_state_publisher offers the description (a late subscriber still gets it).
 DESCRIPTION_QOS = QoSProfile(
@@ -56,6 +57,8 @@ def wait_for_description(node: Node, timeout: float) -> str:
     start = said = time.monotonic()
     try:
         while not got:
+            if stopping():
+                raise StopSignalError(f"stopped while waiting for {topic}")
             executor.spin_once(timeout_sec=0.05)
             now = time.monotonic()
             if timeout and now - start > timeout:

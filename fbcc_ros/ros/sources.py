@@ -61,8 +61,10 @@ class SourceWatch:
         for topic in self.inputs:
             if count(topic) > 1:
                 names = self._publishers(topic, mine=True)
-                problems.append(f"{len(names)} publishers on {topic} ({', '.join(names)}): "
-                                "one source per input")  # fmt: skip
+                twice = (": the same node twice (a second instance, or a dead one DDS has not "
+                         "forgotten yet)" if len(set(names)) < len(names) else "")
+                problems.append(f"{len(names)} publishers on {topic} ({', '.join(names)}){twice}"
+                                ": one source per input")  # fmt: skip
         for topic in self.commands:
             if count(topic) > 1:
                 others = self._publishers(topic, mine=False)

@@ -109,6 +109,11 @@ class MockCell:
         #: the largest true contact |f| [N] and |m| about the true {H} origin [N·m] so far, as
         #: the wrench guard measures them (it sees only the samples its loop takes)
         self.peak = np.zeros(2)
+        #: the largest step between two successive joint commands (the first from where the
+        #: arm starts), as the time it takes at the joints' velocity limits [s]: a
+        #: position-controlled arm applies each command within a cycle, however large
+        self.largest_step = 0.0
+        self._last_command = self.q.copy()
         self._to_origin = transfer_matrix(self._acting)
         self.sensor_in_hole = self._acting  # at the acting point, axes as the true hole's
         # the peg's wrench on the hole at the acting point, read in {S}: T_S_A = T_S_H T_H_A
@@ -134,6 +139,8 @@ class MockCell:
             raise InputError(
                 "joint_command", q.tolist(), f"positions within the limits of {self.robot.name}"
             )
+        step = float(np.max(np.abs(q - self._last_command) / self.robot.velocity_limit))
+        self.largest_step, self._last_command = max(self.largest_step, step), q
         self._late.append((self.t, q))
 
     def step(self, dt: float) -> CellSample:
