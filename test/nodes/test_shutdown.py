@@ -23,6 +23,7 @@ from fbcc_ros.nodes.bringup import (
     start_insertion,
     wait_recording,
 )
+from fbcc_ros.ros.process import LEASE_PROFILE, PROFILE_VARIABLE, short_lease
 from test.nodes.test_cell_ros import REALTIME, SCENARIO
 
 #: The states a cell is stopped in, and the signal: as Ctrl-C in a terminal (or ros2 launch)
@@ -73,3 +74,45 @@ def test_every_node_ends_cleanly_on_a_signal(state: str, sig: signal.Signals,
     if state == "inserting":
         assert "held at its measured joints" in said["kinematics"], said["kinematics"]
         assert "aborted, held at the measured pose" in said["fbcc_controller"]
+
+
+def test_a_killed_node_leaves_the_graph_within_its_short_lease(tmp_path: Path) -> None:
+    """SIGKILL leaves no goodbye: the node's publishers stay in the graph for its DDS lease,
+    3 s for our nodes (ros/fastdds.xml) where Fast DDS's default keeps them 20 s."""
+    import sys
+
+    import rclpy
+
+    cmd = [sys.executable, "-m", "fbcc_ros.nodes", "fbcc_controller", "--ros-args", "-r",
+           "__ns:=/lease_test"]  # fmt: skip
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = rclpy.create_node("lease_watcher", context=context)
+    with (tmp_path / "log.txt").open("w") as log:
+        proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT)
+    try:
+        deadline = time.monotonic() + 30.0
+        while node.count_publishers("/lease_test/fbcc/phase") == 0:
+            assert time.monotonic() < deadline, (tmp_path / "log.txt").read_text()
+            time.sleep(0.05)
+        proc.kill()
+        proc.wait()
+        killed = time.monotonic()
+        while node.count_publishers("/lease_test/fbcc/phase") and time.monotonic() < killed + 10:
+            time.sleep(0.05)
+        gone = time.monotonic() - killed
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+    assert gone < 4.5, f"the dead node stayed {gone:.1f} s in the graph"
+
+
+def test_a_profile_of_the_users_own_is_left_alone() -> None:
+    env = {PROFILE_VARIABLE: "/etc/my_dds.xml"}
+    short_lease(env)
+    assert env == {PROFILE_VARIABLE: "/etc/my_dds.xml"}
+    env = {}
+    short_lease(env)
+    assert env == {PROFILE_VARIABLE: str(LEASE_PROFILE)} and LEASE_PROFILE.is_file()
