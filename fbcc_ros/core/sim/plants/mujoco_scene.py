@@ -1,0 +1,289 @@
+"""The peg-in-hole scene in MuJoCo: a faceted bore with its top face, an optional chamfer and a
+bottom, and the peg in a compliant grip driven by the robot's hand. Its contact physics are
+MuJoCo's, not eq. 5-13: the independent plant the law is judged on (DESIGN §7).
+
+Frames and conventions are the package's: {H} at the centre of the hole's top face, z out of
+the hole (the peg inserts along -z), the peg's features ``(dx, dy, l, theta_x, theta_y)`` of
+its tip in {H} (:mod:`fbcc_ros.core.contact.features`), the wrench the peg exerts on the hole
+about the {H} origin, SI units, angles in radians (the MJCF says ``angle="radian"``).
+
+* **The bore** is ``facets`` flat boxes whose inner faces are tangent to the hole's circle: the
+  hole is the polygon circumscribing it, so its radius is R at a facet's middle and
+  ``R / cos(pi / facets)`` at a corner (the shape error :func:`shape_error`, 1.5 µm at R = 5 mm
+  and 128 facets). A non-convex mesh would collide as its convex hull, a closed hole. The boxes'
+  tops form the hole's top face, as wide as ``rim``. A chamfer is a second ring of boxes at 45°.
+  A plate closes the bottom.
+* **The grip**: the peg has six joints at its grip point, ``grip`` above its tip, each a
+  position servo whose target is the hand's commanded pose: a spring to the hand with critical
+  damping, laterally and in tilt the holder's stiffness (:class:`~fbcc_ros.core.sim.holder.
+  Holder`), axially and about z :data:`AXIAL` and :data:`TWIST` (a rigid holder would leave
+  the contact nothing to push against: it takes :data:`RIGID`). A hand that is a mocap body
+  with the peg its child would carry the peg along kinematically, past any friction. MuJoCo
+  integrates a servo's stiffness explicitly: one too stiff for the timestep gets rotor inertia
+  (armature) until its natural frequency times the timestep is :data:`STABLE`; statics are
+  unchanged, the fastest grip modes slower than the peg's own mass would make them.
+* **The contact** is MuJoCo's soft constraint, ``solref`` (time constant, damping ratio) and
+  ``solimp``, with an elliptic friction cone, a raised ``impratio`` and the no-slip solver, so
+  that the peg sticks below mu N and slides at it (:class:`Contact`). Its figures are checked
+  against physics (``test/core/sim/test_mujoco_scene.py``), never against the law's results.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import mujoco
+import numpy as np
+
+from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.contact.features import R_ALIGNED, features_from_pose, pose_from_features
+from fbcc_ros.core.contact.model import PegHole
+from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.sim.holder import Holder
+
+#: The grip's axial stiffness [N/m] and about z [N·m/rad]: the holder is rigid there (position
+#: controlled), MuJoCo needs a finite spring for the contact to act against.
+AXIAL, TWIST = 1.0e6, 1.0e3
+#: The largest omega dt of a grip spring (its natural frequency times the timestep): MuJoCo
+#: integrates joint springs explicitly, and a stiffer one is given armature to stay there.
+STABLE = 0.5
+#: The stiffness that stands for a rigid holder: (lateral [N/m], angular [N·m/rad]), the stiff
+#: end of holder.py's range.
+RIGID = Holder(1.0e6, 3.0e3)
+
+
+@dataclasses.dataclass(frozen=True)
+class Contact:
+    """MuJoCo's contact parameters (MJCF ``solref``, ``solimp``, ``impratio``).
+
+    Attributes:
+        timeconst: solref's time constant [s], at least twice the timestep.
+        dampratio: solref's damping ratio.
+        solimp: (d0, dwidth, width [m], midpoint, power): the impedance over penetration.
+        impratio: The ratio of frictional to normal impedance (elliptic cone).
+        timestep: The simulation's timestep [s].
+        noslip: Iterations of MuJoCo's no-slip solver: without them a soft contact creeps under
+            any tangential force (a peg pressed on the wall with 4.5 N slid down under 0.002 N
+            of friction), with them it sticks until mu N.
+    """
+
+    timeconst: float = 2.0e-4
+    dampratio: float = 1.0
+    solimp: tuple[float, float, float, float, float] = (0.99, 0.999, 1.0e-5, 0.5, 2.0)
+    impratio: float = 10.0
+    timestep: float = 1.0e-4
+    noslip: int = 10
+
+    def __post_init__(self) -> None:
+        if not self.timeconst >= 2.0 * self.timestep:
+            twice = 2 * self.timestep
+            raise ConfigError("contact.timeconst", self.timeconst,
+                              f"at least twice the timestep ({twice:g} s)")  # fmt: skip
+
+
+@dataclasses.dataclass(frozen=True)
+class Part:
+    """What the scene adds to the pair's geometry.
+
+    Attributes:
+        facets: The bore's flat faces (at least 16).
+        chamfer: The 45° chamfer's width at the top [m] (0: none).
+        rim: The width of the hole's top face around it [m].
+        peg_length: From the tip to the peg's top [m].
+        grip: The grip point's height above the tip [m].
+        peg_mass: [kg].
+    """
+
+    facets: int = 128
+    chamfer: float = 0.0
+    rim: float = 0.005
+    peg_length: float = 0.05
+    grip: float = 0.05
+    peg_mass: float = 0.05
+
+    def __post_init__(self) -> None:
+        if self.facets < 16:
+            raise ConfigError("plant.facets", self.facets, "at least 16")
+        if self.chamfer < 0 or self.rim <= self.chamfer:
+            raise ConfigError("plant.chamfer", self.chamfer, f"in [0, rim {self.rim:g} m)")
+
+
+def shape_error(radius: float, facets: int) -> float:
+    """How far the bore's corners lie outside its circle [m]: R (1 / cos(pi / N) - 1)."""
+    return radius * (1.0 / math.cos(math.pi / facets) - 1.0)
+
+
+def _quat_z(angle: float) -> str:
+    return f"{math.cos(angle / 2)} 0 0 {math.sin(angle / 2)}"
+
+
+def _quat(rotation: FloatArray) -> str:
+    """A rotation matrix as MJCF's quaternion (w x y z)."""
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation, dtype=float).ravel())
+    return " ".join(map(str, quat))
+
+
+#: A rotation of 45° about y: x to (1, 0, -1)/sqrt(2), z to (1, 0, 1)/sqrt(2).
+_ROT_Y_45 = np.array([[math.sqrt(0.5), 0.0, math.sqrt(0.5)], [0.0, 1.0, 0.0],
+                      [-math.sqrt(0.5), 0.0, math.sqrt(0.5)]])  # fmt: skip
+
+
+def _bore(pair: PegHole, part: Part) -> str:
+    """The fixture's boxes, in {H}."""
+    R, N, c = pair.hole_radius, part.facets, part.chamfer
+    depth = pair.hole_depth - c  # the straight bore under the chamfer
+    half_t = 0.5 * part.rim
+    boxes = []
+    for i in range(N):
+        a = 2.0 * math.pi * i / N
+        half_w = R * math.tan(math.pi / N) * 1.02  # a little past the corner: no gaps
+        r = R + half_t
+        boxes.append(f'<geom type="box" size="{half_t} {half_w} {depth / 2}" '
+                     f'pos="{r * math.cos(a)} {r * math.sin(a)} {-c - depth / 2}" '
+                     f'quat="{_quat_z(a)}" class="hole"/>')  # fmt: skip
+        if c > 0:  # the chamfer's face: from (R, -c) to (R + c, 0), 45° out of the axis
+            half_c = c * math.sqrt(2.0) / 2
+            rc = R + c / 2 + half_t / math.sqrt(2.0)
+            zc = -c / 2 - half_t / math.sqrt(2.0)
+            wide = (R + c) * math.tan(math.pi / N) * 1.02
+            # Rz(a) Ry(45°): the box's x (its depth behind the face) outward and down, its z
+            # along the face, outward and up
+            tilt = _quat(np.array([[math.cos(a), -math.sin(a), 0.0],
+                                   [math.sin(a), math.cos(a), 0.0],
+                                   [0.0, 0.0, 1.0]]) @ _ROT_Y_45)  # fmt: skip
+            boxes.append(f'<geom type="box" size="{half_t} {wide} {half_c}" '
+                         f'pos="{rc * math.cos(a)} {rc * math.sin(a)} {zc}" quat="{tilt}" '
+                         f'class="hole"/>')  # fmt: skip
+    outer = R + part.rim
+    boxes.append(f'<geom type="box" size="{outer} {outer} {pair.base_thickness / 2}" '
+                 f'pos="0 0 {-pair.hole_depth - pair.base_thickness / 2}" class="hole"/>')
+    return "\n".join(boxes)
+
+
+def scene_xml(pair: PegHole, holder: Holder | None = None, part: Part | None = None,
+              contact: Contact | None = None) -> str:  # fmt: skip
+    """The MJCF of the scene: {H} is the world's origin; the peg's six joints at its grip point,
+    each a position servo whose target is the hand (:meth:`MujocoPegHole.set_hand`)."""
+    part, contact = part or Part(), contact or Contact()
+    grip = RIGID if holder is None or holder.is_rigid else holder
+    m, r, L, g = part.peg_mass, pair.peg_radius, part.peg_length, part.grip
+    tilt_inertia = m * (3 * r * r + L * L) / 12 + m * (g - L / 2) ** 2  # about the grip point
+    joints, servos = [], []
+    for i, (kind, axis, k, inertia) in enumerate((
+            ("slide", "1 0 0", grip.lateral, m), ("slide", "0 1 0", grip.lateral, m),
+            ("slide", "0 0 1", AXIAL, m), ("hinge", "1 0 0", grip.angular, tilt_inertia),
+            ("hinge", "0 1 0", grip.angular, tilt_inertia),
+            ("hinge", "0 0 1", TWIST, m * r * r / 2))):  # fmt: skip
+        # a spring is integrated explicitly: one stiffer than the timestep resolves gets
+        # armature (rotor inertia) until omega dt <= STABLE (statics unchanged)
+        armature = max(0.0, k * (contact.timestep / STABLE) ** 2 - inertia)
+        damping = 2.0 * math.sqrt(k * (inertia + armature))  # critical
+        joints.append(f'<joint name="grip{i}" type="{kind}" axis="{axis}" '
+                      f'armature="{armature}"/>')  # fmt: skip
+        servos.append(f'<position joint="grip{i}" kp="{k}" kv="{damping}" '
+                      'ctrllimited="false"/>')  # fmt: skip
+    solimp = " ".join(map(str, contact.solimp))
+    mu = pair.friction
+    return f"""<mujoco model="fbcc_peg_in_hole">
+  <compiler angle="radian"/>
+  <option timestep="{contact.timestep}" integrator="implicitfast" cone="elliptic"
+          impratio="{contact.impratio}" noslip_iterations="{contact.noslip}" gravity="0 0 -9.81"/>
+  <default>
+    <geom solref="{contact.timeconst} {contact.dampratio}" solimp="{solimp}"
+          friction="{mu} 0.005 0.0001" condim="4" margin="0"/>
+    <default class="hole"><geom rgba="0.6 0.6 0.65 1"/></default>
+  </default>
+  <worldbody>
+    <body name="fixture">
+      {_bore(pair, part)}
+    </body>
+    <body name="peg">
+      {"".join(joints)}
+      <geom name="peg" type="cylinder" size="{r} {L / 2}" pos="0 0 {L / 2 - g}"
+            mass="{m}" rgba="0.8 0.5 0.2 1"/>
+      <site name="tip" pos="0 0 {-g}"/>
+    </body>
+  </worldbody>
+  <actuator>
+    {"".join(servos)}
+  </actuator>
+</mujoco>"""
+
+
+class MujocoPegHole:
+    """The scene, stepped: set the hand, step, read the peg's features and the wrench on the
+    hole.
+
+    Args:
+        pair: The true peg and hole (radii, depth, base, friction; its ``stiffness`` is eq.
+            8's and not used: the contact's stiffness is MuJoCo's).
+        holder: The grip's stiffness at the grip point (None: :data:`RIGID`).
+        part: The bore's facets, chamfer, rim; the peg's length, grip and mass.
+        contact: MuJoCo's contact parameters.
+    """
+
+    def __init__(self, pair: PegHole, holder: Holder | None = None, part: Part | None = None,
+                 contact: Contact | None = None) -> None:  # fmt: skip
+        self.pair, self.part = pair, part or Part()
+        self.model = mujoco.MjModel.from_xml_string(scene_xml(pair, holder, self.part, contact))
+        self.data = mujoco.MjData(self.model)
+        self.dt = float(self.model.opt.timestep)
+        self._peg = self.model.body("peg").id
+        self._tip = self.model.site("tip").id
+        fixture = self.model.body("fixture").id
+        self._hole_geoms = set(np.flatnonzero(self.model.geom_bodyid == fixture).tolist())
+        self._force = np.zeros(6)
+        mujoco.mj_forward(self.model, self.data)
+
+    def set_hand(self, features: FloatArray) -> None:
+        """The hand at the pose that holds the peg, undeflected in its grip, at ``features``
+        ``(dx, dy, l, theta_x, theta_y)`` (:func:`~fbcc_ros.core.contact.features.
+        pose_from_features`, zero spin): the grip's targets."""
+        self.data.ctrl[:] = self._grip_coordinates(features)
+
+    def _grip_coordinates(self, features: FloatArray) -> FloatArray:
+        """The grip joints' coordinates of the peg at ``features``: the grip point, then the
+        rotation as hinges about x, then y, then z (R = Rx(a) Ry(b) Rz(c))."""
+        rot_hp, tip = pose_from_features(features, self.pair.peg_radius)
+        rot = rot_hp @ R_ALIGNED  # the peg body's frame: z from the tip to the top
+        grip = tip + rot @ np.array([0.0, 0.0, self.part.grip])
+        b = math.asin(max(-1.0, min(1.0, float(rot[0, 2]))))
+        a = math.atan2(-float(rot[1, 2]), float(rot[2, 2]))
+        c = math.atan2(-float(rot[0, 1]), float(rot[0, 0]))
+        return np.array([*grip, a, b, c])
+
+    def place(self, features: FloatArray) -> None:
+        """The hand and the peg, at rest, undeflected at ``features`` (a trial's start)."""
+        self.set_hand(features)
+        self.data.qpos[:] = self.data.ctrl
+        self.data.qvel[:] = 0.0
+        mujoco.mj_forward(self.model, self.data)
+
+    def step(self, n: int = 1) -> None:
+        mujoco.mj_step(self.model, self.data, nstep=n)
+
+    def features(self) -> FloatArray:
+        """The peg's true features in {H}: (dx, dy, l, theta_x, theta_y)."""
+        rot = self.data.xmat[self._peg].reshape(3, 3) @ R_ALIGNED  # R_HP
+        return features_from_pose(rot, self.data.site_xpos[self._tip], self.pair.peg_radius)
+
+    def wrench_on_hole(self) -> FloatArray:
+        """The wrench the peg exerts on the hole, summed over their contacts, about the {H}
+        origin in {H} axes: (fx, fy, fz, mx, my, mz) [N, N·m]."""
+        total = np.zeros(6)
+        d = self.data
+        for i in range(d.ncon):
+            con = d.contact[i]
+            g1, g2 = int(con.geom1), int(con.geom2)
+            if (g1 in self._hole_geoms) == (g2 in self._hole_geoms):
+                continue
+            mujoco.mj_contactForce(self.model, d, i, self._force)
+            frame = con.frame.reshape(3, 3)  # rows: the normal (geom1 -> geom2), tangents
+            f = frame.T @ self._force[:3]  # the force geom1 exerts on geom2, world axes
+            if g1 in self._hole_geoms:
+                f = -f  # the hole is geom1: the peg's force on it is the opposite
+            total[:3] += f
+            total[3:] += np.cross(con.pos, f)
+        return total
