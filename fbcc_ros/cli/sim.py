@@ -1,6 +1,6 @@
 """fbcc-sim: simulate assemblies from scenario files (DESIGN §4) and write what happened.
 
-    fbcc-sim SCENARIO.yaml [MORE.yaml ...] --out DIR
+    fbcc-sim SCENARIO.yaml [MORE.yaml ...] --out DIR [--plant model|mujoco]
 
 Every law of every scenario is one run. DIR receives
 
@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import json
 import time
 from pathlib import Path
@@ -33,9 +34,13 @@ from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.simulation import SimResult, run_scenario
 
 
-def run_files(paths: list[Path]) -> list[tuple[str, SimResult]]:
-    """Validate every file first, then run every law of each: ``[(run name, result)]``."""
+def run_files(paths: list[Path], plant: str | None = None) -> list[tuple[str, SimResult]]:
+    """Validate every file first, then run every law of each (on ``plant`` if given, else on
+    each scenario's own): ``[(run name, result)]``."""
     scenarios = [scenario_io.load(p) for p in paths]
+    if plant is not None:
+        scenarios = [dataclasses.replace(sc, plant=dataclasses.replace(sc.plant, type=plant))
+                     for sc in scenarios]  # fmt: skip
     runs = []
     for sc in scenarios:
         for law in sc.laws:
@@ -101,10 +106,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("scenarios", nargs="+", type=Path, metavar="SCENARIO.yaml")
     parser.add_argument("--out", required=True, help="output folder (created if missing)")
     parser.add_argument("--no-plots", action="store_true", help="skip the figures")
+    parser.add_argument("--plant", choices=scenario_io.PLANTS, default=None,
+                        help="the plant to run on (default: each scenario's plant.type, "
+                             "model if absent): model (eq. 5-13) or mujoco (MuJoCo's physics)")
     args = parser.parse_args(argv)
     out = out_dir(parser, args.out)
     start = time.perf_counter()
-    runs = run_files(args.scenarios)
+    runs = run_files(args.scenarios, args.plant)
     elapsed = time.perf_counter() - start
     write_run(runs, out, plots=not args.no_plots)
     summaries = {name: res.summary for name, res in runs}

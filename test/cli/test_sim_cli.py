@@ -42,6 +42,27 @@ def test_sim_single_run_writes_a_flat_summary(tmp_path: Path) -> None:
     assert summary["success"] is True and summary["state_sequence"]
 
 
+def test_sim_runs_a_scenario_on_the_plant_named(tmp_path: Path, capsys) -> None:
+    """``--plant mujoco`` runs the same scenario on MuJoCo: 0.1 mm off, ten times the
+    clearance, with no chamfer, the peg stands on the hole's top face, which the model has not;
+    a plant that is not one is refused by argparse."""
+    scenario = tmp_path / "short.yaml"
+    scenario.write_text("geometry: {hole_radius: 0.00505, peg_radius: 0.00504, hole_depth: 0.01,"
+                        " base_thickness: 0.005, friction: 0.3, stiffness: 1.84e+8}\n"
+                        "initial: {dx: 1.0e-4, dy: 0, theta_x: 0, theta_y: 0}\n"
+                        "holder: {lateral: 5.0e+4, angular: 30}\nduration: 0.4\n")
+    out = {p: tmp_path / p for p in ("model", "mujoco")}
+    for plant, folder in out.items():
+        assert sim.main([str(scenario), "--out", str(folder), "--no-plots", "--plant",
+                         plant]) == 0  # fmt: skip
+    model, mujoco = (json.loads((out[p] / "summary.json").read_text()) for p in out)
+    assert model["final_features"] != mujoco["final_features"]
+    assert mujoco["final_features"]["l"] < 1e-4  # on the top face, not in the hole
+    with pytest.raises(SystemExit) as refused:
+        sim.main([str(scenario), "--out", str(tmp_path / "x"), "--plant", "bullet"])
+    assert refused.value.code == 2 and "invalid choice: 'bullet'" in capsys.readouterr().err
+
+
 def test_sim_refuses_a_bad_scenario_before_simulating(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -24,6 +24,9 @@ robot          lag: time constant of the position-controlled robot [s] (0.005); 
                stack the mock plays) and rate_hz (the stack's rate; sets rate_hz below)
 holder         the compliance of arm, sensor and gripper at the grip point (absent: rigid):
                lateral [N/m], angular [N·m/rad] (fbcc_ros/core/sim/holder.py has typical values)
+plant          type: model (eq. 5-13, the default) | mujoco (fbcc_ros/core/sim/plants/);
+               for mujoco: facets of the bore (128), chamfer [m] (0), rim [m] (0.005),
+               timestep [s] (1e-4)
 tolerance      success tolerances: offset [m] (2e-5), tilt [rad] (0.0035), depth [m] (1e-5),
                force [N] (1.0): a plane whose lateral force is below it counts as settled
 rate_hz        control and simulation rate [Hz] (1000)
@@ -97,6 +100,20 @@ class RosCell:
     qos: str = "reliable"
 
 
+PLANTS = ("model", "mujoco")  # the plants a scenario may run on
+
+
+@dataclasses.dataclass(frozen=True)
+class PlantSpec:
+    """The scenario's ``plant``: which one, and the MuJoCo scene's bore and timestep."""
+
+    type: str = "model"
+    facets: int = 128
+    chamfer: float = 0.0
+    rim: float = 0.005
+    timestep: float = 1.0e-4
+
+
 @dataclasses.dataclass(frozen=True)
 class Scenario:
     """A validated scenario (see the module doc for the keys)."""
@@ -117,6 +134,7 @@ class Scenario:
     holder: Holder | None = None  # None: the peg held rigidly
     cell: RosCell = RosCell()
     delay: float = 0.0  # [s] from a command to the robot (robot.delay)
+    plant: PlantSpec = PlantSpec()
 
     @property
     def law(self) -> str:
@@ -223,7 +241,7 @@ def _laws(value: Any) -> tuple[str, ...]:
 def validate(scenario: Any, name: str = "scenario") -> Scenario:
     """Check a scenario mapping and fill in the defaults; raises ConfigError naming the key."""
     top = ("geometry", "controller", "initial", "insertion", "sensor", "robot", "holder",
-           "tolerance", "rate_hz", "duration", "seed")  # fmt: skip
+           "plant", "tolerance", "rate_hz", "duration", "seed")  # fmt: skip
     s = _mapping("scenario", scenario, top, ("geometry", "initial"))
     geometry = _geometry(s["geometry"])
 
@@ -305,7 +323,29 @@ def validate(scenario: Any, name: str = "scenario") -> Scenario:
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ConfigError("seed", seed, "an integer >= 0")
     return Scenario(geometry, laws, params, initial, insertion, noise, bias, lag, tolerance,
-                    rate, duration, seed, name, holder, cell, delay)  # fmt: skip
+                    rate, duration, seed, name, holder, cell, delay,
+                    _plant(s.get("plant", {}), rate))  # fmt: skip
+
+
+def _plant(value: Any, rate: float) -> PlantSpec:
+    p = _mapping("plant", value, ("type", "facets", "chamfer", "rim", "timestep"))
+    kind = p.get("type", "model")
+    if kind not in PLANTS:
+        raise ConfigError("plant.type", kind, f"one of {list(PLANTS)}")
+    facets = p.get("facets", PlantSpec.facets)
+    if isinstance(facets, bool) or not isinstance(facets, int) or not 16 <= facets <= 4096:
+        raise ConfigError("plant.facets", facets, "an integer in [16, 4096]")
+    rim = _number("plant.rim", p.get("rim", PlantSpec.rim), 0, 0.1, "m", low_open=True)
+    chamfer = _number("plant.chamfer", p.get("chamfer", 0.0), 0, 0.999 * rim,
+                      f"m (less than plant.rim, {rim:g} m)")  # fmt: skip
+    # at most half MuJoCo's contact time constant (0.2 ms, plants/mujoco_scene.Contact)
+    timestep = _number("plant.timestep", p.get("timestep", PlantSpec.timestep), 0, 1e-4, "s",
+                       low_open=True)  # fmt: skip
+    periods = 1.0 / (rate * timestep)
+    if abs(periods - round(periods)) > 1e-6:
+        raise ConfigError("plant.timestep", timestep, f"a whole fraction of the control period "
+                          f"({1 / rate:g} s)")  # fmt: skip
+    return PlantSpec(kind, facets, chamfer, rim, timestep)
 
 
 def _choice(key: str, value: Any, choices: tuple[str, ...]) -> str:

@@ -1,23 +1,10 @@
 """Closed-loop simulation of an assembly (the paper's Section IV) and its metrics.
 
-The plant, per trial:
-
-* **the hole** sits at an unknown deviation ``x_dev = (dx, dy, 0, theta_x, theta_y)`` from where
-  the robot believes it is: a peg at the believed features 0 has the true features ``x_dev``.
-  The true features of the robot's pose ``p`` (features of the believed hole) follow exactly,
-  ``T_{H_true P} = P(x_dev) P(0)^-1 P(p)`` (:func:`fbcc_ros.core.contact.features.true_features`,
-  the mock cell's plant too);
-* **the robot** is position controlled: ``p`` follows the command x_c with a first-order lag,
-  ``p(k+1) = p(k) + (1 - exp(-dt/tau)) (x_c(k - n) - p(k))``, the command reaching it
-  ``n = round(delay / dt)`` periods late (scenario ``robot.delay``, 0 by default);
-* **the contact** is the analytic model of eq. (5)-(13) (:mod:`fbcc_ros.core.contact.model`), with
-the
-  true radii; the peg touches nothing while its depth is <= 0;
-* **the holder** (scenario ``holder``, absent: rigid) is a spring at the grip point in series
-  with the contact: each step the peg settles where the holder balances the contact
-  (:class:`fbcc_ros.core.sim.holder_solver.HolderSolver`), and the true features are that position;
-* **the sensor** adds its bias and white Gaussian noise; the dynamic compensation is taken as
-  ideal apart from that bias (issue "dynamic compensation" models the rest).
+The plant (:mod:`fbcc_ros.core.sim.plants`: the model of eq. 5-13 by default, or MuJoCo) holds
+the trials: the hole at its unknown deviation from where the robot believes it is, the
+position-controlled robot with its lag and delay, the holder, the contact. Each period it
+gives the true features and the contact's response; **the sensor** adds its bias and white
+Gaussian noise (the dynamic compensation is taken as ideal apart from that bias).
 
 The controller sees the measured wrench and the depth of ``p`` (its feature solution), and knows
 only the nominal geometry. Each step: contact → sensor → control law → the supervisor's step
@@ -62,7 +49,6 @@ All quantities are the true ones (from the model, before the sensor), not the me
 
 from __future__ import annotations
 
-import collections
 import dataclasses
 import math
 from collections.abc import Callable, Sequence
@@ -71,14 +57,30 @@ from typing import Any
 import numpy as np
 
 from fbcc_ros.core.arrays import FloatArray
-from fbcc_ros.core.contact.features import true_rows
-from fbcc_ros.core.contact.model import FEATURE_NAMES, ContactBatch, PegHole
+from fbcc_ros.core.contact.model import FEATURE_NAMES, PegHole
 from fbcc_ros.core.contact.segmentation import feature_state
 from fbcc_ros.core.control.laws import Law, make_law
 from fbcc_ros.core.control.supervisor import SafetyLimits
 from fbcc_ros.core.errors import ConfigError, FbccError
-from fbcc_ros.core.sim.holder_solver import HolderSolver
+from fbcc_ros.core.sim.plants.model import ModelPlant
+from fbcc_ros.core.sim.plants.plant import LaggingRobot, Plant
 from fbcc_ros.core.sim.scenario import Scenario, validate
+
+#: Builds a plant: (scenario, robot, deviations (N, 5), true pairs (1 or N)) -> Plant.
+MakePlant = Callable[[Scenario, LaggingRobot, FloatArray, Sequence[PegHole]], Plant]
+
+
+def scenario_plant(sc: Scenario, robot: LaggingRobot, deviation: FloatArray,
+                   pairs: Sequence[PegHole]) -> Plant:  # fmt: skip
+    """The scenario's plant (its ``plant.type``): the model
+    (:class:`~fbcc_ros.core.sim.plants.model.ModelPlant`) or MuJoCo
+    (:class:`~fbcc_ros.core.sim.plants.mujoco.MujocoPlant`, imported only then)."""
+    if sc.plant.type == "model":
+        return ModelPlant(robot, deviation, sc.geometry, pairs, sc.holder)
+    from fbcc_ros.core.sim.plants.mujoco import MujocoPlant
+
+    return MujocoPlant.of(sc, robot, deviation, pairs)
+
 
 #: Fraction of the run at its end over which the residual responses are averaged.
 RESIDUAL_WINDOW = 0.1
@@ -218,6 +220,7 @@ def simulate(
     seed: int | None = None,
     limits: SafetyLimits | None = None,
     wrap: Callable[[Law], Any] | None = None,
+    make_plant: MakePlant | None = None,
 ) -> tuple[Outcome, Trajectory | None]:
     """Run N trials of the closed loop in lockstep.
 
@@ -231,61 +234,44 @@ def simulate(
         limits: The supervisor's step limits; default the controller's.
         wrap: Puts something around the law (the same interface: ``reset``, ``step``,
             ``stopped``, ``trips``), e.g. :class:`~fbcc_ros.core.control.state_gate.StateGatedLaw`.
+        make_plant: Builds the plant from ``(scenario, robot, deviations, true pairs)``
+            (:mod:`fbcc_ros.core.sim.plants`); default :func:`scenario_plant`.
     """
     dev = np.atleast_2d(sc.initial if initial is None else np.asarray(initial, dtype=float))
     n = len(dev)
     pairs = list(geometries) if geometries is not None else [sc.geometry]
-    contact = ContactBatch.of(pairs)
-    if len(contact) not in (1, n):
-        raise ConfigError("geometries", f"{len(contact)} pairs", f"1 or {n}, one per trial")
-    r_nominal = sc.geometry.peg_radius
-    r_true = np.broadcast_to(np.array([g.peg_radius for g in pairs]), n).copy()
-    dev_rows = np.ascontiguousarray(dev, dtype=float)
+    if len(pairs) not in (1, n):
+        raise ConfigError("geometries", f"{len(pairs)} pairs", f"1 or {n}, one per trial")
     rng = np.random.default_rng(sc.seed if seed is None else seed)
     law = make_law(law_name, sc.geometry, sc.params, sc.insertion)
     if wrap is not None:
         law = wrap(law)
     dt = 1.0 / sc.rate_hz
-    alpha = 1.0 - math.exp(-dt / sc.lag) if sc.lag > 0 else 1.0  # first-order lag of the robot
-
-    holder = HolderSolver(sc.holder) if sc.holder is not None else None
-    pose = np.zeros((n, 5))  # the robot's pose as features of the believed hole
+    robot = LaggingRobot(n, dt, sc.lag, sc.delay)
+    plant = (make_plant or scenario_plant)(sc, robot, dev, pairs)
+    pose = robot.pose  # the robot's pose as features of the believed hole (moved in place)
     law.reset(pose)
     command = pose.copy()  # the supervisor starts from the measured pose
-    # the commands on their way to the robot (robot.delay): it holds its pose until the first
-    late = collections.deque([pose.copy()] * round(sc.delay * sc.rate_hz))
     limits = limits or SafetyLimits()
     metrics = _Metrics(sc, dev)
-    unconverged = np.zeros(n)  # steps whose holder equilibrium the solver did not converge
     chunks: list[tuple[np.ndarray, ...]] = []
     buf_x, buf_w, buf_m, buf_c, buf_p = (np.empty((_CHUNK, n, 5)) for _ in range(5))
     steps = sc.steps
     for k0 in range(0, steps, _CHUNK):
         kk = min(_CHUNK, steps - k0)
         for j in range(kk):
-            x = np.empty((n, 5))
-            true_rows(pose, dev_rows, r_nominal, r_true, x)  # of a rigid holder
-            x_touch = x.copy()
-            np.maximum(x_touch[:, 2], 0.0, out=x_touch[:, 2])  # above the hole: no contact
-            if holder is None:
-                w = contact.response(x_touch)
-            else:  # the peg deflects in its holder until the holder balances the contact
-                settled = holder.step(x_touch, contact)
-                unconverged += ~settled.converged
-                w = settled.wrench
-                x = x + settled.delta
+            x, w = plant.sense()
             measured = w + sc.bias + sc.noise * rng.standard_normal((n, 5))
             buf_p[j] = pose
             command = limits.clip(command, law.step(measured, pose, dt))
-            late.append(command)
-            pose += alpha * (late.popleft() - pose)
+            plant.command(command)
             buf_x[j], buf_w[j], buf_m[j], buf_c[j] = x, w, measured, command
         t = (k0 + np.arange(kk)) * dt
         metrics.add(k0, np.asarray(t, dtype=float), buf_x[:kk], buf_w[:kk])
         if record:
             chunks.append((t, buf_x[:kk].copy(), buf_w[:kk].copy(), buf_m[:kk].copy(),
                            buf_c[:kk].copy(), buf_p[:kk].copy()))  # fmt: skip
-    outcome = metrics.outcome(law.stopped.copy(), law.trips.copy(), unconverged,
+    outcome = metrics.outcome(law.stopped.copy(), law.trips.copy(), plant.unconverged,
                               law.lever_frictions)  # fmt: skip
     if not record:
         return outcome, None
