@@ -288,6 +288,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--holder", type=float, nargs=2, metavar=("N_PER_M", "NM_PER_RAD"),
                         help="hold the peg in a holder of this lateral and angular stiffness "
                         "(overrides the scenario's holder; fbcc_ros/core/sim/holder.py)")
+    parser.add_argument("--plant", choices=scenario_io.PLANTS, default=None,
+                        help="the plant (default: the scenario's plant.type, model if absent)")
     parser.add_argument("--all-parts", action="store_true",
                         help="keep parts whose push-in force exceeds 2/3 of the force limit")
     parser.add_argument("--trial", type=int, nargs="+", metavar="N",
@@ -309,6 +311,8 @@ def main(argv: list[str] | None = None) -> int:
     friction = _range(parser, "--friction", args.friction, 1e-3, 0.99, "")
     if args.seed < 0:
         parser.error(f"--seed={args.seed} is not allowed: expected an integer >= 0")
+    if args.plant is not None:
+        sc = sc.on_plant(args.plant)
     if args.holder is not None:
         try:
             sc = dataclasses.replace(sc, holder=Holder(*args.holder))
@@ -346,6 +350,7 @@ def main(argv: list[str] | None = None) -> int:
         "max_tilt_deg": args.max_tilt_deg, "stiffness_gpa": stiffness_gpa,
         "friction": friction, "feasible_force": feasible, "parts_redrawn": trials.redrawn,
         "holder": None if sc.holder is None else [sc.holder.lateral, sc.holder.angular],
+        "plant": dataclasses.asdict(sc.plant),
     }  # fmt: skip
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     write_trials(trials, results, out / "trials.csv")

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import dataclasses
 import json
 import time
 from pathlib import Path
@@ -39,8 +38,7 @@ def run_files(paths: list[Path], plant: str | None = None) -> list[tuple[str, Si
     each scenario's own): ``[(run name, result)]``."""
     scenarios = [scenario_io.load(p) for p in paths]
     if plant is not None:
-        scenarios = [dataclasses.replace(sc, plant=dataclasses.replace(sc.plant, type=plant))
-                     for sc in scenarios]  # fmt: skip
+        scenarios = [sc.on_plant(plant) for sc in scenarios]
     runs = []
     for sc in scenarios:
         for law in sc.laws:

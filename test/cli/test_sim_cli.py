@@ -63,6 +63,30 @@ def test_sim_runs_a_scenario_on_the_plant_named(tmp_path: Path, capsys) -> None:
     assert refused.value.code == 2 and "invalid choice: 'bullet'" in capsys.readouterr().err
 
 
+def test_montecarlo_runs_its_trials_on_the_plant_named(tmp_path: Path) -> None:
+    """``fbcc-montecarlo --plant mujoco``: the trials run on MuJoCo, the same for the same seed
+    on one worker or two, and the study says which plant it ran on."""
+    scenario = tmp_path / "short.yaml"
+    scenario.write_text("geometry: {hole_radius: 0.00505, peg_radius: 0.00504, hole_depth: 0.01,"
+                        " base_thickness: 0.005, friction: 0.3, stiffness: 1.84e+8}\n"
+                        "initial: {dx: 0, dy: 0, theta_x: 0, theta_y: 0}\n"
+                        "insertion: {depth: 0.001, speed: 0.005}\n"
+                        "holder: {lateral: 5.0e+4, angular: 30}\nduration: 0.3\n")
+    rows = []
+    for workers in ("1", "2"):
+        out = tmp_path / workers
+        assert montecarlo.main([str(scenario), "--out", str(out), "--trials", "4", "--plant",
+                                "mujoco", "--workers", workers]) == 0  # fmt: skip
+        summary = json.loads((out / "summary.json").read_text())
+        assert summary["_run"]["plant"]["type"] == "mujoco"
+        rows.append((out / "trials.csv").read_text())
+    assert rows[0] == rows[1]
+    model = tmp_path / "model"
+    assert montecarlo.main([str(scenario), "--out", str(model), "--trials", "4",
+                            "--workers", "1"]) == 0  # fmt: skip
+    assert (model / "trials.csv").read_text() != rows[0]  # the plant is not the model
+
+
 def test_sim_refuses_a_bad_scenario_before_simulating(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -146,6 +146,9 @@ class Scenario:
     def with_law(self, law: str) -> Scenario:
         return dataclasses.replace(self, laws=(law,))
 
+    def on_plant(self, kind: str) -> Scenario:
+        return dataclasses.replace(self, plant=dataclasses.replace(self.plant, type=kind))
+
     @property
     def steps(self) -> int:
         return round(self.duration * self.rate_hz)
@@ -291,14 +294,8 @@ def validate(scenario: Any, name: str = "scenario") -> Scenario:
 
     tol = _mapping("tolerance", s.get("tolerance", {}), tuple(DEFAULT_TOLERANCE))
     tolerance = Tolerance(
-        _number(
-            "tolerance.offset",
-            tol.get("offset", Tolerance.offset),
-            0,
-            _OFFSET_MAX,
-            "m",
-            low_open=True,
-        ),
+        _number("tolerance.offset", tol.get("offset", Tolerance.offset), 0, _OFFSET_MAX, "m",
+                low_open=True),
         _number(
             "tolerance.tilt", tol.get("tilt", Tolerance.tilt), 0, _TILT_MAX, "rad", low_open=True
         ),
