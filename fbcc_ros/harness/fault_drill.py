@@ -22,13 +22,13 @@ What it reports (:meth:`DrillWatch.result`, the summary's ``fault_drill``):
   guard's limits, and the largest step between the joint commands the mock arm received, as a
   fraction of one period's travel at the joint velocity limits (a position-controlled arm
   applies each command within a cycle, however long it was in coming);
-* holding at the end, how far the arm's measured pose is from the hold.
-
-All of it is read from the cell's topics and its nodes' ``/diagnostics`` (the mock's truth, the
-guard's limits, the controller's tracking error, the samples rejected), so a drill runs alike
-with the nodes in this process or each in its own (``--processes``).
+* holding at the end, how far the arm's measured pose is from the hold;
 * whether the bag is complete and consistent (read back: its metadata counts what the file
   holds).
+
+All of it is read from the cell's topics, its nodes' ``/diagnostics`` (the mock's truth, the
+guard's limits, the controller's tracking error, the samples rejected) and the bag, so a drill
+runs alike with the nodes in this process or each in its own (``--processes``).
 
 ``safe`` when no limit was exceeded and the bag is complete and consistent (for ``disk-full``,
 cut at its last flushed chunk and consistent); ``as_expected`` when the outcome is the one the

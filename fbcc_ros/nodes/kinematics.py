@@ -22,8 +22,6 @@ solutions are :class:`~fbcc_ros.pipeline.kinematics.KinematicsStage`'s. An unrea
 
 from __future__ import annotations
 
-import math
-import time
 from typing import Any
 
 from builtin_interfaces.msg import Duration
@@ -64,7 +62,6 @@ class KinematicsNode(Node):
         values = declare(self, TABLE)
         self.stage = KinematicsStage(values, description_for(self, values))
         self.failures = 0
-        self._commanded = -math.inf  # when the last joint command went out (monotonic [s])
         self.out_features = Outlet(self.create_publisher(PoseStamped, topics.FEATURES, 10))
         self.pub_tcp = self.create_publisher(PoseStamped, topics.TCP_COMMAND, 10)
         self.command_type = values["command_type"]
@@ -117,17 +114,17 @@ class KinematicsNode(Node):
         if solution is None:  # no joints measured yet
             return
         self.pub_joints.publish(self._command(solution, stamp))
-        self._commanded = time.monotonic()
         if self.pub_tcp.get_subscription_count():  # an observer's topic: skip it unheard
             self.pub_tcp.publish(pose_to_cdr(solution.peg_in_base, self.base_frame, stamp))
 
     def on_shutdown(self) -> None:
         """Stopped while it commands the arm (SIGINT, SIGTERM: ``run``), it leaves the arm at
         its last measured joints: the arm does not go on to a command nobody follows up."""
-        hold = self.stage.hold()
-        if hold is None or time.monotonic() - self._commanded > MOVING_WITHIN:
+        now = self.get_clock().now().nanoseconds * 1e-9
+        hold = self.stage.hold(now)
+        if hold is None:
             return
-        self.pub_joints.publish(self._command(hold, self.get_clock().now().nanoseconds * 1e-9))
+        self.pub_joints.publish(self._command(hold, now))
         self.get_logger().info("stopping while commanding the arm: held at its measured joints")
         self.pub_joints.wait_for_all_acked(Timeout(seconds=ACKED_WITHIN))
 
@@ -144,8 +141,6 @@ class KinematicsNode(Node):
         return JointTrajectory(joint_names=list(self.stage.joint_names), points=[point])
 
 
-#: A node that commanded the arm within this many seconds holds it when it stops [s].
-MOVING_WITHIN = 0.1
 
 
 def main() -> None:

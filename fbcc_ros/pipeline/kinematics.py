@@ -32,6 +32,9 @@ from fbcc_ros.pipeline.parameters import HOLE_FRAME, JOINT_STATES, Param
 #: The most control periods a command may take to reach, from the measured joints: as many as
 #: the controller steps one late sample by.
 MAX_REACH_PERIODS = MAX_PERIODS
+#: A stage that solved a command within this many seconds is moving the arm: stopped, it holds
+#: it (:meth:`KinematicsStage.hold`).
+MOVING_WITHIN = 0.1
 
 #: Where a model that is not built in comes from: the URDF the ``robot_description`` topic
 #: latches (robot_state_publisher, ros2_control), or the file ``urdf_file``.
@@ -141,6 +144,7 @@ class KinematicsStage:
         self.cell = CellKinematics(robot, hole, None)
         self.dt = 1.0 / values["rate_hz"]
         self.q: FloatArray | None = None
+        self.t_command: float | None = None  # when the last command was solved [s]
         self.t_q: float | None = None
 
     def preload(self) -> None:
@@ -170,13 +174,16 @@ class KinematicsStage:
         measured. Raises :class:`~fbcc_ros.core.kinematics.ik.IkError` for a pose out of reach."""
         if self.q is None:
             return None
-        return self.cell.pose_solution(peg_in_hole, self.q, self.reach(now))
+        solution = self.cell.pose_solution(peg_in_hole, self.q, self.reach(now))
+        self.t_command = now
+        return solution
 
-    def hold(self) -> TcpCommand | None:
-        """The last measured joints as a command: the arm stays where it was measured (a
-        node that stops while the arm moves leaves no step toward a command it no longer
-        follows); None before any joints were measured."""
-        if self.q is None:
+    def hold(self, now: float) -> TcpCommand | None:
+        """The last measured joints as a command, if a command was solved within
+        :data:`MOVING_WITHIN` before ``now`` [s]: a node that stops while the arm moves leaves
+        it where it was measured, not on its way to a command nobody follows up. None when
+        the arm was not being commanded, or no joints were measured."""
+        if self.q is None or self.t_command is None or now - self.t_command > MOVING_WITHIN:
             return None
         robot = self.cell.robot
         return TcpCommand(self.q.copy(), robot.flange_in_base(self.q), robot.peg_in_base(self.q),

@@ -7,7 +7,12 @@ import pinocchio as pin
 import pytest
 
 from fbcc_ros.core.kinematics.ik import IkError
-from fbcc_ros.pipeline.kinematics import MAX_REACH_PERIODS, TABLE, KinematicsStage
+from fbcc_ros.pipeline.kinematics import (
+    MAX_REACH_PERIODS,
+    MOVING_WITHIN,
+    TABLE,
+    KinematicsStage,
+)
 from fbcc_ros.pipeline.parameters import resolve
 
 
@@ -48,6 +53,22 @@ def test_the_reach_grows_with_the_age_of_the_measured_joints_up_to_a_bound() -> 
     assert stage.command(far, now=1.003) is not None  # four periods' reach
     assert stage.reach(1.5) == pytest.approx(MAX_REACH_PERIODS * stage.dt)
     assert stage.reach(None) == stage.dt
+
+
+def test_a_stage_that_moves_the_arm_holds_it_at_the_measured_joints() -> None:
+    """Stopped within MOVING_WITHIN of its last command, the stage gives the measured joints
+    (not the command it was heading for); stopped later, or never commanding, nothing."""
+    stage = KinematicsStage(resolve("kinematics", TABLE, {}))
+    q = stage.cell.robot.home.copy()
+    start = stage.joints(q, stamp=1.0)
+    assert stage.hold(1.0) is None  # never commanded
+    command = stage.command(start * pin.SE3(np.eye(3), np.array([5e-5, 0.0, 0.0])), now=1.0)
+    assert command is not None and not np.allclose(command.q, q)
+    hold = stage.hold(1.0 + 0.5 * MOVING_WITHIN)
+    assert hold is not None and np.array_equal(hold.q, q)
+    assert np.allclose(hold.peg_in_base.homogeneous,
+                       stage.cell.robot.peg_in_base(q).homogeneous)  # fmt: skip
+    assert stage.hold(1.0 + 2 * MOVING_WITHIN) is None
 
 
 def test_joints_stamped_ahead_of_their_arrival_are_refused() -> None:

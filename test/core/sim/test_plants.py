@@ -80,6 +80,21 @@ def test_a_bad_plant_is_refused_naming_its_key(plant: dict[str, Any], key: str) 
         _scenario(plant)
 
 
+def test_the_plant_keys_build_the_scene_they_name() -> None:
+    """facets, chamfer, rim and timestep reach MuJoCo's model: the bore's boxes, their place,
+    the timestep and the substeps of a control period."""
+    keys = {"type": "mujoco", "facets": 64, "chamfer": 2e-4, "rim": 0.004, "timestep": 5e-5}
+    sc = _scenario(keys)
+    robot = LaggingRobot(1, 1.0 / sc.rate_hz, sc.lag, sc.delay)
+    plant = scenario_plant(sc, robot, sc.initial[None], [sc.geometry])
+    assert isinstance(plant, MujocoPlant)
+    model = plant.scenes[0].model
+    assert model.opt.timestep == 5e-5 and plant.substeps == 20
+    assert model.ngeom == 2 * 64 + 1 + 1  # facets, chamfer facets, bottom, peg
+    facet = model.geom_size[0]  # half the rim, half a facet's width, half the bore's depth
+    assert facet[0] == pytest.approx(0.002) and facet[2] == pytest.approx((0.01 - 2e-4) / 2)
+
+
 def test_a_scenario_without_a_plant_runs_on_the_model() -> None:
     sc = scenario.validate({k: v for k, v in BASE.items()})
     assert sc.plant.type == "model"
