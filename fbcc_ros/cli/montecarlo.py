@@ -61,6 +61,7 @@ from fbcc_ros.core.sim.montecarlo import (
     run_montecarlo,
     wilson_interval,
 )
+from fbcc_ros.core.sim.plants.spec import PLANTS
 from fbcc_ros.core.sim.simulation import Outcome
 from fbcc_ros.core.sim.study_goals import failures, goals, missed_goals, time_goal
 
@@ -288,7 +289,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--holder", type=float, nargs=2, metavar=("N_PER_M", "NM_PER_RAD"),
                         help="hold the peg in a holder of this lateral and angular stiffness "
                         "(overrides the scenario's holder; fbcc_ros/core/sim/holder.py)")
-    parser.add_argument("--plant", choices=scenario_io.PLANTS, default=None,
+    parser.add_argument("--plant", choices=PLANTS, default=None,
                         help="the plant (default: the scenario's plant.type, model if absent)")
     parser.add_argument("--all-parts", action="store_true",
                         help="keep parts whose push-in force exceeds 2/3 of the force limit")

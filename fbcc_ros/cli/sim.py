@@ -30,6 +30,7 @@ from fbcc_ros.cli.sim_plots import Series, draw_planes, draw_trajectories
 from fbcc_ros.core.contact.model import FEATURE_NAMES, RESPONSE_NAMES
 from fbcc_ros.core.errors import command
 from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim.plants.spec import PLANTS
 from fbcc_ros.core.sim.simulation import SimResult, run_scenario
 
 
@@ -104,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("scenarios", nargs="+", type=Path, metavar="SCENARIO.yaml")
     parser.add_argument("--out", required=True, help="output folder (created if missing)")
     parser.add_argument("--no-plots", action="store_true", help="skip the figures")
-    parser.add_argument("--plant", choices=scenario_io.PLANTS, default=None,
+    parser.add_argument("--plant", choices=PLANTS, default=None,
                         help="the plant to run on (default: each scenario's plant.type, "
                              "model if absent): model (eq. 5-13) or mujoco (MuJoCo's physics)")
     args = parser.parse_args(argv)

@@ -41,7 +41,6 @@ value and the range we expect in SI units: the check is a plausibility range, no
 from __future__ import annotations
 
 import dataclasses
-import math
 import re
 from collections.abc import Mapping
 from pathlib import Path
@@ -52,9 +51,12 @@ import numpy as np
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.control.laws import LAWS, Insertion, Params, params_from_mapping
-from fbcc_ros.core.errors import ConfigError, closest
+from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.files import read_yaml
+from fbcc_ros.core.schema import mapping as _mapping
+from fbcc_ros.core.schema import number as _number
 from fbcc_ros.core.sim.holder import Holder
+from fbcc_ros.core.sim.plants.spec import PlantSpec, plant_spec
 
 #: Plausibility ranges (SI): a value outside smells of mm, degrees or GPa given by mistake.
 _LENGTH_MAX = 0.5  # [m] radii and depths of a peg for a robot cell
@@ -100,20 +102,6 @@ class RosCell:
     qos: str = "reliable"
 
 
-PLANTS = ("model", "mujoco")  # the plants a scenario may run on
-
-
-@dataclasses.dataclass(frozen=True)
-class PlantSpec:
-    """The scenario's ``plant``: which one, and the MuJoCo scene's bore and timestep."""
-
-    type: str = "model"
-    facets: int = 128
-    chamfer: float = 0.0
-    rim: float = 0.005
-    timestep: float = 1.0e-4
-
-
 @dataclasses.dataclass(frozen=True)
 class Scenario:
     """A validated scenario (see the module doc for the keys)."""
@@ -134,7 +122,7 @@ class Scenario:
     holder: Holder | None = None  # None: the peg held rigidly
     cell: RosCell = RosCell()
     delay: float = 0.0  # [s] from a command to the robot (robot.delay)
-    plant: PlantSpec = PlantSpec()
+    plant: PlantSpec = dataclasses.field(default_factory=PlantSpec)
 
     @property
     def law(self) -> str:
@@ -152,42 +140,6 @@ class Scenario:
     @property
     def steps(self) -> int:
         return round(self.duration * self.rate_hz)
-
-
-def _number(
-    key: str, value: Any, low: float, high: float, unit: str, *, low_open: bool = False
-) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        hint = ""
-        if isinstance(value, str):
-            try:
-                float(value)
-                hint = " (given as text: quoted, or a YAML 1.1 parser, which reads 5e-5 as text)"
-            except ValueError:
-                pass
-        raise ConfigError(key, value, f"a number in {unit}{hint}")
-    v = float(value)
-    ok = math.isfinite(v) and (v > low if low_open else v >= low) and v <= high
-    if not ok:
-        bracket = "(" if low_open else "["
-        raise ConfigError(key, value, f"a value in {bracket}{low:g}, {high:g}] {unit}")
-    return v
-
-
-def _mapping(
-    key: str, value: Any, allowed: tuple[str, ...], required: tuple[str, ...] = ()
-) -> Mapping[str, Any]:
-    if not isinstance(value, Mapping):
-        raise ConfigError(key, value, f"a mapping with keys {', '.join(allowed)}")
-    unknown = [k for k in value if k not in allowed]
-    if unknown:
-        raise ConfigError(f"{key}.{unknown[0]}", value[unknown[0]],
-                          f"{closest(str(unknown[0]), allowed)}a key of {key}: one of "
-                          f"{', '.join(allowed)}")  # fmt: skip
-    missing = [k for k in required if k not in value]
-    if missing:
-        raise ConfigError(f"{key}.{missing[0]}", "<missing>", "a value: this key is required")
-    return value
 
 
 def _vector5(key: str, value: Any, limit: float, unit: str) -> FloatArray:
@@ -294,8 +246,14 @@ def validate(scenario: Any, name: str = "scenario") -> Scenario:
 
     tol = _mapping("tolerance", s.get("tolerance", {}), tuple(DEFAULT_TOLERANCE))
     tolerance = Tolerance(
-        _number("tolerance.offset", tol.get("offset", Tolerance.offset), 0, _OFFSET_MAX, "m",
-                low_open=True),
+        _number(
+            "tolerance.offset",
+            tol.get("offset", Tolerance.offset),
+            0,
+            _OFFSET_MAX,
+            "m",
+            low_open=True,
+        ),
         _number(
             "tolerance.tilt", tol.get("tilt", Tolerance.tilt), 0, _TILT_MAX, "rad", low_open=True
         ),
@@ -321,28 +279,7 @@ def validate(scenario: Any, name: str = "scenario") -> Scenario:
         raise ConfigError("seed", seed, "an integer >= 0")
     return Scenario(geometry, laws, params, initial, insertion, noise, bias, lag, tolerance,
                     rate, duration, seed, name, holder, cell, delay,
-                    _plant(s.get("plant", {}), rate))  # fmt: skip
-
-
-def _plant(value: Any, rate: float) -> PlantSpec:
-    p = _mapping("plant", value, ("type", "facets", "chamfer", "rim", "timestep"))
-    kind = p.get("type", "model")
-    if kind not in PLANTS:
-        raise ConfigError("plant.type", kind, f"one of {list(PLANTS)}")
-    facets = p.get("facets", PlantSpec.facets)
-    if isinstance(facets, bool) or not isinstance(facets, int) or not 16 <= facets <= 4096:
-        raise ConfigError("plant.facets", facets, "an integer in [16, 4096]")
-    rim = _number("plant.rim", p.get("rim", PlantSpec.rim), 0, 0.1, "m", low_open=True)
-    chamfer = _number("plant.chamfer", p.get("chamfer", 0.0), 0, 0.999 * rim,
-                      f"m (less than plant.rim, {rim:g} m)")  # fmt: skip
-    # at most half MuJoCo's contact time constant (0.2 ms, plants/mujoco_scene.Contact)
-    timestep = _number("plant.timestep", p.get("timestep", PlantSpec.timestep), 0, 1e-4, "s",
-                       low_open=True)  # fmt: skip
-    periods = 1.0 / (rate * timestep)
-    if abs(periods - round(periods)) > 1e-6:
-        raise ConfigError("plant.timestep", timestep, f"a whole fraction of the control period "
-                          f"({1 / rate:g} s)")  # fmt: skip
-    return PlantSpec(kind, facets, chamfer, rim, timestep)
+                    plant_spec(s.get("plant", {}), rate))  # fmt: skip
 
 
 def _choice(key: str, value: Any, choices: tuple[str, ...]) -> str:

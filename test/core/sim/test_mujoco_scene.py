@@ -52,6 +52,8 @@ def test_the_bores_shape_error_is_the_polygons() -> None:
 def test_bad_scene_parameters_are_refused() -> None:
     with pytest.raises(ConfigError, match="timeconst"):
         Contact(timeconst=1e-4, timestep=1e-4)
+    with pytest.raises(ConfigError, match="timestep"):
+        Contact(timeconst=1e-3, timestep=2e-4)  # past MAX_TIMESTEP, the armature's
     with pytest.raises(ConfigError, match="facets"):
         Part(facets=8)
     with pytest.raises(ConfigError, match="chamfer"):
@@ -79,7 +81,8 @@ def test_a_peg_pushed_into_the_wall_reads_the_grips_stiffness(lateral: float) ->
     force = plant.wrench_on_hole()
     assert force[0] == pytest.approx(lateral * (1e-4 - CLEARANCE), rel=0.05)
     assert abs(force[1]) < 0.01 * force[0] and plant.features()[0] == pytest.approx(
-        CLEARANCE, abs=0.5e-6)
+        CLEARANCE, abs=0.5e-6
+    )
 
 
 @pytest.mark.parametrize("friction", [0.15, 0.35])
@@ -100,18 +103,22 @@ def test_a_peg_pressed_on_the_wall_sticks_then_slides_at_mu_n(friction: float) -
     stuck = pressed + np.array([0, 0, half, 0, 0])
     sliding = _move(plant, stuck, pressed + np.array([0, 0, 4e-5, 0, 0]), 2.0)
     assert plant.features()[2] - depth > 3e-5
-    ratios = [-w[2] / w[0] for w in sliding[len(sliding) // 2:]]
+    ratios = [-w[2] / w[0] for w in sliding[len(sliding) // 2 :]]
     assert np.mean(ratios) == pytest.approx(friction, rel=0.10)
 
 
 def test_the_bottom_stops_the_peg() -> None:
+    """The hand 0.5 mm past the bottom: the peg stops there, sunk into the soft contact by
+    what about 500 N asks of it (13 µm: one contact point, solimp's 10 µm width), and the
+    bottom holds what the axial grip spring pushes."""
     plant = MujocoPegHole(_pair(), Holder(5e4, 30.0))
     start = np.array([0, 0, 0.009, 0, 0.0])
     plant.place(start)
     _move(plant, start, start + np.array([0, 0, 0.0015, 0, 0]), 0.1)
     plant.step(3000)
-    assert plant.features()[2] == pytest.approx(0.010, abs=5e-6)
-    assert plant.wrench_on_hole()[2] == pytest.approx(-AXIAL * 0.0005, rel=0.05)
+    depth = plant.features()[2]
+    assert 0.010 <= depth < 0.010 + 2e-5
+    assert plant.wrench_on_hole()[2] == pytest.approx(-AXIAL * (0.0105 - depth), rel=0.01)
 
 
 @pytest.mark.parametrize(("chamfer", "enters"), [(0.0, False), (3e-4, True)])
@@ -132,3 +139,36 @@ def test_an_offset_peg_stands_on_the_top_face_unless_a_chamfer_leads_it_in(
         # of an off-centre support), a chamfered one goes in by millimetres
         assert abs(depth) < 5e-6
         assert wrenches[-1][2] == pytest.approx(-AXIAL * 0.0001, rel=0.05)
+
+
+def _off_the_peg(plant: MujocoPegHole) -> float:
+    """How far the contact farthest from the peg's surface lies outside it [m]."""
+    d, model = plant.data, plant.model
+    peg = model.body("peg").id
+    rot, tip = d.xmat[peg].reshape(3, 3), d.site_xpos[model.site("tip").id]
+    worst = 0.0
+    for i in range(d.ncon):
+        v = rot.T @ (d.contact[i].pos - tip)  # in the peg's frame, z from the tip up
+        radial = math.hypot(v[0], v[1]) - plant.pair.peg_radius
+        worst = max(worst, radial, -v[2], v[2] - plant.part.peg_length)
+    return worst
+
+
+@pytest.mark.parametrize(("dx", "tilt", "chamfer"), [
+    (1e-4, 0.0, 3e-4), (2e-5, 0.0, 0.0), (0.0, 0.01, 3e-4), (5e-5, 0.005, 3e-4),
+    (-1e-4, 0.0, 3e-4)])  # fmt: skip
+def test_every_contact_lies_on_the_pegs_surface(dx: float, tilt: float, chamfer: float) -> None:
+    """The hand pushed down 2 mm at 5 mm/s from above the hole, off-centre or tilted: every
+    contact MuJoCo finds lies within 50 µm of the peg (the convex collider's tolerance at
+    its 1 µm default put contacts 5 mm off it, with spikes of 325 N)."""
+    pair = PegHole(hole_radius=0.00505, peg_radius=0.00504, hole_depth=0.01,
+                   base_thickness=0.005, friction=0.3, stiffness=1.84e8)  # fmt: skip
+    plant = MujocoPegHole(pair, Holder(5e4, 30.0), Part(chamfer=chamfer))
+    hand = np.array([dx, 0.0, -5e-4, 0.0, tilt])
+    plant.place(hand)
+    for _ in range(400):
+        hand[2] += 5e-6
+        plant.set_hand(hand)
+        for _ in range(round(1e-3 / plant.dt)):
+            plant.step()
+            assert _off_the_peg(plant) < 5e-5

@@ -73,6 +73,7 @@ def test_mujoco_has_the_top_face_the_model_lacks() -> None:
     ({"type": "mujoco", "chamfer": 0.01}, "plant.chamfer"),
     ({"type": "mujoco", "timestep": 3e-4}, "plant.timestep"),
     ({"type": "mujoco", "timestep": 3e-5}, "plant.timestep"),
+    ({"type": "mujoco", "timestep": 1e-4}, "plant.timeconst"),  # 2 timesteps: unsettled
     ({"type": "mujoco", "mesh": "x.stl"}, "plant"),
 ])  # fmt: skip
 def test_a_bad_plant_is_refused_naming_its_key(plant: dict[str, Any], key: str) -> None:
@@ -83,13 +84,15 @@ def test_a_bad_plant_is_refused_naming_its_key(plant: dict[str, Any], key: str) 
 def test_the_plant_keys_build_the_scene_they_name() -> None:
     """facets, chamfer, rim and timestep reach MuJoCo's model: the bore's boxes, their place,
     the timestep and the substeps of a control period."""
-    keys = {"type": "mujoco", "facets": 64, "chamfer": 2e-4, "rim": 0.004, "timestep": 5e-5}
+    keys = {"type": "mujoco", "facets": 64, "chamfer": 2e-4, "rim": 0.004, "timestep": 1e-4,
+            "timeconst": 1e-3}  # fmt: skip
     sc = _scenario(keys)
     robot = LaggingRobot(1, 1.0 / sc.rate_hz, sc.lag, sc.delay)
     plant = scenario_plant(sc, robot, sc.initial[None], [sc.geometry])
     assert isinstance(plant, MujocoPlant)
     model = plant.scenes[0].model
-    assert model.opt.timestep == 5e-5 and plant.substeps == 20
+    assert model.opt.timestep == 1e-4 and plant.substeps == 10
+    assert model.geom_solref[0][0] == 1e-3
     assert model.ngeom == 2 * 64 + 1 + 1  # facets, chamfer facets, bottom, peg
     facet = model.geom_size[0]  # half the rim, half a facet's width, half the bore's depth
     assert facet[0] == pytest.approx(0.002) and facet[2] == pytest.approx((0.01 - 2e-4) / 2)
@@ -98,3 +101,41 @@ def test_the_plant_keys_build_the_scene_they_name() -> None:
 def test_a_scenario_without_a_plant_runs_on_the_model() -> None:
     sc = scenario.validate({k: v for k, v in BASE.items()})
     assert sc.plant.type == "model"
+
+
+def _chamfered_insertion(**plant: Any) -> dict[str, Any]:
+    """The Fig. 9 pair 0.1 mm off into a 0.3 mm chamfer, 1 mm deep, no sensor noise."""
+    sc = scenario.validate(
+        {
+            **BASE,
+            "initial": {**BASE["initial"], "dx": 1e-4},
+            "insertion": {"depth": 0.001, "speed": 0.005},
+            "duration": 1.0,
+            "sensor": {"noise": 0},
+            "plant": {"type": "mujoco", "chamfer": 3e-4, **plant},
+        }
+    )
+    return simulate(sc, "fbcc", record=False)[0].summary(0)
+
+
+def test_a_chamfered_insertion_ends_in_the_same_state_at_finer_timesteps_and_facets() -> None:
+    """Halving the timestep, or doubling the facets, moves the insertion's final features by
+    less than 2 µm (the credibility study, docs/plant.md)."""
+    first = _chamfered_insertion()
+    for other in (_chamfered_insertion(timestep=2.5e-5), _chamfered_insertion(facets=256)):
+        assert first["success"] and other["success"]
+        for name in ("dx", "dy", "l"):
+            assert other["final_features"][name] == pytest.approx(
+                first["final_features"][name], abs=2e-6
+            )
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="measured: the chamfered entry's peak Fz, 1.69 N, is "
+    "1.82 N at half the timestep (+8 %); docs/plant.md",
+)
+def test_a_chamfered_insertions_peak_force_settles_in_the_timestep() -> None:
+    """The issue's criterion for the peak force: within 5 % when the timestep is halved."""
+    first, finer = _chamfered_insertion(), _chamfered_insertion(timestep=2.5e-5)
+    assert finer["peak_fz"] == pytest.approx(first["peak_fz"], rel=0.05)

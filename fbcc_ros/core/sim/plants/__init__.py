@@ -1,1 +1,1 @@
-"""The plants a law runs against (DESIGN §7): the model of eq. 5-13 and MuJoCo."""
+"""The plants the simulator drives (:mod:`.plant`): the model of eq. 5-13 and MuJoCo."""

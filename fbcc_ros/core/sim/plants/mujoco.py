@@ -62,10 +62,10 @@ class MujocoPlant:
     def of(cls, sc: Any, robot: LaggingRobot, deviation: FloatArray,
            pairs: Sequence[PegHole]) -> MujocoPlant:  # fmt: skip
         """The plant of a scenario (:class:`~fbcc_ros.core.sim.scenario.Scenario`): its
-        holder, its ``plant`` section's bore and timestep."""
+        holder, its ``plant`` section's bore, timestep and contact time constant."""
         spec = sc.plant
         part = Part(facets=spec.facets, chamfer=spec.chamfer, rim=spec.rim)
-        contact = Contact(timestep=spec.timestep)
+        contact = Contact(timeconst=spec.timeconst, timestep=spec.timestep)
         return cls(robot, deviation, sc.geometry, pairs, sc.holder, 1.0 / sc.rate_hz, part,
                    contact)  # fmt: skip
 

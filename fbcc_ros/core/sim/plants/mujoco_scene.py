@@ -20,8 +20,9 @@ about the {H} origin, SI units, angles in radians (the MJCF says ``angle="radian
   the contact nothing to push against: it takes :data:`RIGID`). A hand that is a mocap body
   with the peg its child would carry the peg along kinematically, past any friction. MuJoCo
   integrates a servo's stiffness explicitly: one too stiff for the timestep gets rotor inertia
-  (armature) until its natural frequency times the timestep is :data:`STABLE`; statics are
-  unchanged, the fastest grip modes slower than the peg's own mass would make them.
+  (armature) until its natural frequency times :data:`MAX_TIMESTEP` is :data:`STABLE`; statics
+  are unchanged, the fastest grip modes slower than the peg's own mass would make them, and the
+  same at every timestep.
 * **The contact** is MuJoCo's soft constraint, ``solref`` (time constant, damping ratio) and
   ``solimp``, with an elliptic friction cone, a raised ``impratio`` and the no-slip solver, so
   that the peg sticks below mu N and slides at it (:class:`Contact`). Its figures are checked
@@ -41,6 +42,7 @@ from fbcc_ros.core.contact.features import R_ALIGNED, features_from_pose, pose_f
 from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim.holder import Holder
+from fbcc_ros.core.sim.plants.spec import MAX_TIMESTEP, TIMESTEPS_PER_TIMECONST, PlantSpec
 
 #: The grip's axial stiffness [N/m] and about z [N·m/rad]: the holder is rigid there (position
 #: controlled), MuJoCo needs a finite spring for the contact to act against.
@@ -48,6 +50,10 @@ AXIAL, TWIST = 1.0e6, 1.0e3
 #: The largest omega dt of a grip spring (its natural frequency times the timestep): MuJoCo
 #: integrates joint springs explicitly, and a stiffer one is given armature to stay there.
 STABLE = 0.5
+#: MuJoCo's convex-collision tolerance [m] (``ccd_tolerance``). Its default, 1 µm, is a tenth of
+#: the clearance: a peg's flat tip level with a facet's top then met contacts 5 mm off its
+#: surface, with force spikes of up to 325 N (test_every_contact_lies_on_the_pegs_surface).
+CCD_TOLERANCE = 1.0e-9
 #: The stiffness that stands for a rigid holder: (lateral [N/m], angular [N·m/rad]), the stiff
 #: end of holder.py's range.
 RIGID = Holder(1.0e6, 3.0e3)
@@ -58,7 +64,8 @@ class Contact:
     """MuJoCo's contact parameters (MJCF ``solref``, ``solimp``, ``impratio``).
 
     Attributes:
-        timeconst: solref's time constant [s], at least twice the timestep.
+        timeconst: solref's time constant [s], at least :data:`~.spec.TIMESTEPS_PER_TIMECONST`
+            timesteps.
         dampratio: solref's damping ratio.
         solimp: (d0, dwidth, width [m], midpoint, power): the impedance over penetration.
         impratio: The ratio of frictional to normal impedance (elliptic cone).
@@ -68,18 +75,20 @@ class Contact:
             of friction), with them it sticks until mu N.
     """
 
-    timeconst: float = 2.0e-4
+    timeconst: float = PlantSpec.timeconst
     dampratio: float = 1.0
     solimp: tuple[float, float, float, float, float] = (0.99, 0.999, 1.0e-5, 0.5, 2.0)
     impratio: float = 10.0
-    timestep: float = 1.0e-4
+    timestep: float = PlantSpec.timestep
     noslip: int = 10
 
     def __post_init__(self) -> None:
-        if not self.timeconst >= 2.0 * self.timestep:
-            twice = 2 * self.timestep
-            raise ConfigError("contact.timeconst", self.timeconst,
-                              f"at least twice the timestep ({twice:g} s)")  # fmt: skip
+        if not 0 < self.timestep <= MAX_TIMESTEP:
+            raise ConfigError("plant.timestep", self.timestep, f"in (0, {MAX_TIMESTEP:g}] s")
+        least = TIMESTEPS_PER_TIMECONST * self.timestep
+        if not self.timeconst >= least:
+            raise ConfigError("plant.timeconst", self.timeconst, f"at least "
+                              f"{TIMESTEPS_PER_TIMECONST} timesteps ({least:g} s)")  # fmt: skip
 
 
 @dataclasses.dataclass(frozen=True)
@@ -157,8 +166,10 @@ def _bore(pair: PegHole, part: Part) -> str:
                          f'pos="{rc * math.cos(a)} {rc * math.sin(a)} {zc}" quat="{tilt}" '
                          f'class="hole"/>')  # fmt: skip
     outer = R + part.rim
-    boxes.append(f'<geom type="box" size="{outer} {outer} {pair.base_thickness / 2}" '
-                 f'pos="0 0 {-pair.hole_depth - pair.base_thickness / 2}" class="hole"/>')
+    boxes.append(
+        f'<geom type="box" size="{outer} {outer} {pair.base_thickness / 2}" '
+        f'pos="0 0 {-pair.hole_depth - pair.base_thickness / 2}" class="hole"/>'
+    )
     return "\n".join(boxes)
 
 
@@ -176,9 +187,10 @@ def scene_xml(pair: PegHole, holder: Holder | None = None, part: Part | None = N
             ("slide", "0 0 1", AXIAL, m), ("hinge", "1 0 0", grip.angular, tilt_inertia),
             ("hinge", "0 1 0", grip.angular, tilt_inertia),
             ("hinge", "0 0 1", TWIST, m * r * r / 2))):  # fmt: skip
-        # a spring is integrated explicitly: one stiffer than the timestep resolves gets
-        # armature (rotor inertia) until omega dt <= STABLE (statics unchanged)
-        armature = max(0.0, k * (contact.timestep / STABLE) ** 2 - inertia)
+        # a spring is integrated explicitly: one stiffer than the largest timestep resolves
+        # gets armature (rotor inertia) until omega dt <= STABLE there (statics unchanged), the
+        # same at every timestep, so that a smaller one refines the dynamics, not changes them
+        armature = max(0.0, k * (MAX_TIMESTEP / STABLE) ** 2 - inertia)
         damping = 2.0 * math.sqrt(k * (inertia + armature))  # critical
         joints.append(f'<joint name="grip{i}" type="{kind}" axis="{axis}" '
                       f'armature="{armature}"/>')  # fmt: skip
@@ -189,7 +201,8 @@ def scene_xml(pair: PegHole, holder: Holder | None = None, part: Part | None = N
     return f"""<mujoco model="fbcc_peg_in_hole">
   <compiler angle="radian"/>
   <option timestep="{contact.timestep}" integrator="implicitfast" cone="elliptic"
-          impratio="{contact.impratio}" noslip_iterations="{contact.noslip}" gravity="0 0 -9.81"/>
+          impratio="{contact.impratio}" noslip_iterations="{contact.noslip}" gravity="0 0 -9.81"
+          ccd_tolerance="{CCD_TOLERANCE}"/>
   <default>
     <geom solref="{contact.timeconst} {contact.dampratio}" solimp="{solimp}"
           friction="{mu} 0.005 0.0001" condim="4" margin="0"/>
