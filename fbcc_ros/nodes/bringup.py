@@ -36,6 +36,7 @@ from fbcc_ros.bag.writer import check_new_folder
 from fbcc_ros.core.errors import FbccError, InputError, command
 from fbcc_ros.core.param_files import file_parameters
 from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim.plants.spec import PLANTS
 from fbcc_ros.core.sim.simulation import score
 from fbcc_ros.harness.cell_nodes import CellSetup, deadband_warnings, profile_of
 from fbcc_ros.harness.cell_nodes import cell_nodes as harness_cell_nodes
@@ -57,6 +58,8 @@ def _parser() -> argparse.ArgumentParser:
         "--draw-geometry", action="store_true", help="true radii drawn from Table II's tolerances"
     )
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--plant", choices=PLANTS, default="", help="the mock cell's contact: "
+                        "model (eq. 5-13) or mujoco (docs/plant.md); default: the scenario's")
     parser.add_argument(
         "--processes",
         action="store_true",
@@ -109,6 +112,7 @@ def cell_nodes(
     draw_geometry: bool = False,
     seed: int = 0,
     processes: bool = False,
+    plant: str = "",
 ) -> list[NodeSpec]:
     """The four nodes of the hardware-free cell (:mod:`fbcc_ros.harness.cell_nodes`, as the
     launch file starts them, with the mock playing the stack of the scenario's ``robot``
@@ -120,7 +124,8 @@ def cell_nodes(
 
     factories = {"mock_cell": MockCellNode, "dynamic_compensation": DynamicCompensationNode,
                  "kinematics": KinematicsNode, "fbcc_controller": FbccControllerNode}
-    own: dict[str, dict[str, Any]] = {"mock_cell": {"draw_geometry": draw_geometry, "seed": seed},
+    own: dict[str, dict[str, Any]] = {"mock_cell": {"draw_geometry": draw_geometry, "seed": seed,
+                                                    **({"plant": plant} if plant else {})},
            "fbcc_controller": {"law": law, **({} if processes else
                                               {"timeout": IN_PROCESS_STALL + 1 / sc.rate_hz})}}
     setup = CellSetup(profile_of(sc.cell.conventions), path, namespace=sc.cell.namespace)
@@ -251,6 +256,7 @@ def run_cell(
     bag: Path | None = None,
     wait_for_recorder: bool = False,
     fault: str | None = None,
+    plant: str = "",
 ) -> dict[str, Any]:
     """One assembly through the ROS graph, recorded into ``bag`` if given (or, with
     ``wait_for_recorder``, by an fbcc_record started on its own, waited for), with the fault
@@ -258,7 +264,7 @@ def run_cell(
     CPU per node, what the bag holds, and the drill's result)."""
     path = str(scenario_io.find(scenario_path))
     sc = scenario_io.load(path)
-    specs = cell_nodes(path, sc, law, draw_geometry, seed, processes)
+    specs = cell_nodes(path, sc, law, draw_geometry, seed, processes, plant)
     recorded = recorded_topics(sc.cell.conventions, sc.cell.source != "ft_sensor")
     if bag is not None:
         specs.append(recorder(bag, recorded, sc.cell.namespace))
@@ -293,6 +299,7 @@ def run_cell(
     summary.update(
         scenario=sc.name,
         law=law,
+        plant=plant or sc.plant.type,
         mode="processes" if processes else "one process",
         phase=phase,
         reason=reason,
@@ -350,7 +357,8 @@ def main(argv: list[str] | None = None) -> int:
     law = args.law or sc.laws[0]
     print(
         f"fbcc_bringup: {sc.name}, law {law}, {sc.duration:.1f} s at {sc.rate_hz:.0f} Hz "
-        "(mock cell, compensation, kinematics, controller over DDS, "
+        f"(mock cell on the {args.plant or sc.plant.type} plant, compensation, kinematics, "
+        "controller over DDS, "
         f"{'one process each' if args.processes else 'in one process'})",
         flush=True,
     )
@@ -360,7 +368,7 @@ def main(argv: list[str] | None = None) -> int:
         check_new_folder(bag)
         print(f"recording into {bag}", flush=True)
     summary = run_cell(args.scenario, law, args.draw_geometry, args.seed, args.processes,
-                       logs, bag, args.wait_for_recorder, args.fault)  # fmt: skip
+                       logs, bag, args.wait_for_recorder, args.fault, args.plant)  # fmt: skip
     final = summary["final_features"]
     print(
         f"{'assembled' if summary['success'] else 'NOT assembled'}: phase {summary['phase']}"

@@ -26,6 +26,7 @@ from fbcc_ros.core.sim.arm_sensing import (
     measured_torques,
 )
 from fbcc_ros.core.sim.mock_cell import CellSample, MockCell
+from fbcc_ros.core.sim.plants.spec import PLANTS
 from fbcc_ros.core.sim.sensor_faults import SENSOR_FAULTS, Reading, SensorFault
 from fbcc_ros.core.sim.wrist_sensor import WristSensor
 from fbcc_ros.pipeline.compensation import payload_of, payload_params
@@ -54,6 +55,8 @@ TABLE = (
           "deviation of the hole (initial), the sensor noise and bias, the robot lag"),
     Param("rate_hz", 0.0, "joint state and sensor rate; 0: the scenario's rate_hz", "Hz", 0.0,
           10000.0),
+    Param("plant", "", "the contact between the hand and the hole: model (eq. 5-13) or mujoco "
+          "(docs/plant.md); empty: the scenario's plant.type", choices=("", *PLANTS)),
     Param("draw_geometry", False, "draw the true radii from Table II's tolerances"),
     Param("seed", -1, "seed of the noise and of the drawn geometry; -1: the scenario's seed", "",
           -1, 2**31 - 1),
@@ -110,6 +113,8 @@ class MockStage:
 
     def __init__(self, values: dict[str, Any], description: str | None = None) -> None:
         sc = scenario_io.load(scenario_io.find(values["scenario"]))
+        if values["plant"]:
+            sc = sc.on_plant(values["plant"])
         lbr = LBR_NAME if values["conventions"] == "lbr" else ""
         robot, hole = cell_from(values, description, lbr_name=lbr)
         seed = sc.seed if values["seed"] < 0 else values["seed"]
@@ -118,8 +123,8 @@ class MockStage:
             geometry = perturbed(sc.geometry, np.random.default_rng(seed),
                                  friction_spread=0.0, stiffness_octaves=0.0)  # fmt: skip
         fixture = Payload(values["fixture_mass"], FIXTURE_COM)
-        self.cell = MockCell(sc, robot, hole, geometry, fixture, seed)
         self.dt = 1.0 / (values["rate_hz"] or sc.rate_hz)
+        self.cell = MockCell(sc, robot, hole, geometry, fixture, seed, self.dt)
         self.frame: str = values["sensor_frame"]
         self.fault: SensorFault | None = None
         self.torque_noise = values["torque_noise"]

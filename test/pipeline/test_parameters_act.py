@@ -112,6 +112,7 @@ CHANGED: dict[str, Any] = {
     "locked_joints": [],
     "hole_from_home": False,
     "seed": 7,
+    "plant": "mujoco",  # the scenario's is the model
     # the guard: limits the recorded session stays within, tightened past it
     "guard.force_limit": 1.0,
     "guard.moment_limit": 0.01,

@@ -9,8 +9,10 @@ This is the plant of :mod:`fbcc_ros.core.sim.simulation` in joint space, for the
 * **the arm** follows its joint command with the first-order lag of the scenario
   (``q += (1 - exp(-dt/tau)) (q_cmd - q)``), clipped to its position and velocity limits; a
   command reaches it the scenario's ``robot.delay`` after it was given;
-* **the contact** is the analytic model with the true geometry (it may differ from the nominal
-  one the controller knows: Table II tolerances);
+* **the contact** is the scenario's plant (``plant.type``) with the true geometry (it may
+  differ from the nominal one the controller knows: Table II tolerances): the analytic model,
+  or MuJoCo's peg in its grip (:mod:`fbcc_ros.core.sim.plants`), driven by the hand where the
+  arm's joints put it;
 * **the sensor** sits under the true hole at its acting point, axes as the hole's, and carries a
   fixture; it reads the contact wrench, the fixture's weight, the bias and white noise (the
   scenario's ``sensor`` values, given in response space).
@@ -39,7 +41,9 @@ from fbcc_ros.core.kinematics.cell import CellKinematics
 from fbcc_ros.core.kinematics.ik import solve_ik
 from fbcc_ros.core.kinematics.robot import RobotModel
 from fbcc_ros.core.sim.arm_sensing import external_torques, wrench_at_frame
+from fbcc_ros.core.sim.plants.plant import Contact
 from fbcc_ros.core.sim.scenario import Scenario
+from fbcc_ros.core.sim.simulation import scenario_contact
 
 #: The hole fixture on the mock sensor: 1.5 kg, its centre of mass 2 cm above the sensor.
 DEFAULT_FIXTURE = Payload(1.5, (0.0, 0.0, 0.02))
@@ -78,6 +82,8 @@ class MockCell:
         geometry: True geometry of the pair (default: the scenario's nominal one).
         fixture: What the sensor under the hole carries.
         seed: Of the sensor noise (default: the scenario's).
+        dt: The period the cell is stepped at [s] (default: the scenario's rate): MuJoCo's
+            contact runs whole periods.
     """
 
     def __init__(
@@ -88,10 +94,12 @@ class MockCell:
         geometry: PegHole | None = None,
         fixture: Payload = DEFAULT_FIXTURE,
         seed: int | None = None,
+        dt: float | None = None,
     ) -> None:
         self.sc = sc
         self.robot = robot
         self.geometry = geometry or sc.geometry
+        self.contact: Contact = scenario_contact(sc, 1, [self.geometry], dt)
         r = sc.geometry.peg_radius
         self.believed = CellKinematics(robot, hole_in_base, r)
         deviation = sc.initial.copy()
@@ -158,9 +166,9 @@ class MockCell:
         reach = self.robot.velocity_limit * dt
         step = (alpha * (self.q_cmd - q_prev)).clip(-reach, reach)
         self.q = (q_prev + step).clip(self.robot.lower, self.robot.upper)
-        x = self.truth.features(self.q)
+        features, responses = self.contact.touch(self.truth.features(self.q)[None])
+        x, response = features[0], responses[0]
         x[2] = max(x[2], 0.0)  # above the hole: no contact
-        response = self.geometry.response(x)
         at_acting = wrench_from_response(response)
         at_origin = self._to_origin @ at_acting  # tau_O = tau_A + p_A x f
         self.peak = np.maximum(self.peak, (np.linalg.norm(at_origin[:3]),

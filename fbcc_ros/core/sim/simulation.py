@@ -62,24 +62,32 @@ from fbcc_ros.core.contact.segmentation import feature_state
 from fbcc_ros.core.control.laws import Law, make_law
 from fbcc_ros.core.control.supervisor import SafetyLimits
 from fbcc_ros.core.errors import ConfigError, FbccError
-from fbcc_ros.core.sim.plants.model import ModelPlant
-from fbcc_ros.core.sim.plants.plant import LaggingRobot, Plant
+from fbcc_ros.core.sim.plants.model import ModelContact
+from fbcc_ros.core.sim.plants.plant import Contact, LaggingRobot, Plant
 from fbcc_ros.core.sim.scenario import Scenario, validate
 
 #: Builds a plant: (scenario, robot, deviations (N, 5), true pairs (1 or N)) -> Plant.
 MakePlant = Callable[[Scenario, LaggingRobot, FloatArray, Sequence[PegHole]], Plant]
 
 
+def scenario_contact(sc: Scenario, n: int, pairs: Sequence[PegHole],
+                     dt: float | None = None) -> Contact:  # fmt: skip
+    """The contact of the scenario's ``plant.type`` for ``n`` trials of ``pairs`` (one or n),
+    stepped every ``dt`` [s] (default: the scenario's rate): the model
+    (:class:`~fbcc_ros.core.sim.plants.model.ModelContact`) or MuJoCo
+    (:class:`~fbcc_ros.core.sim.plants.mujoco.MujocoContact`, imported only then)."""
+    if sc.plant.type == "model":
+        return ModelContact(n, pairs, sc.holder)
+    from fbcc_ros.core.sim.plants.mujoco import MujocoContact
+
+    return MujocoContact.of(sc, n, pairs, dt or 1.0 / sc.rate_hz)
+
+
 def scenario_plant(sc: Scenario, robot: LaggingRobot, deviation: FloatArray,
                    pairs: Sequence[PegHole]) -> Plant:  # fmt: skip
-    """The scenario's plant (its ``plant.type``): the model
-    (:class:`~fbcc_ros.core.sim.plants.model.ModelPlant`) or MuJoCo
-    (:class:`~fbcc_ros.core.sim.plants.mujoco.MujocoPlant`, imported only then)."""
-    if sc.plant.type == "model":
-        return ModelPlant(robot, deviation, sc.geometry, pairs, sc.holder)
-    from fbcc_ros.core.sim.plants.mujoco import MujocoPlant
-
-    return MujocoPlant.of(sc, robot, deviation, pairs)
+    """The scenario's plant: the robot and :func:`scenario_contact`."""
+    return Plant(robot, deviation, sc.geometry, pairs,
+                 scenario_contact(sc, len(deviation), pairs))  # fmt: skip
 
 
 #: Fraction of the run at its end over which the residual responses are averaged.

@@ -10,8 +10,8 @@ import pytest
 
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim import scenario
-from fbcc_ros.core.sim.plants.model import ModelPlant
-from fbcc_ros.core.sim.plants.mujoco import MujocoPlant
+from fbcc_ros.core.sim.plants.model import ModelContact
+from fbcc_ros.core.sim.plants.mujoco import MujocoContact
 from fbcc_ros.core.sim.plants.plant import LaggingRobot
 from fbcc_ros.core.sim.simulation import scenario_plant, simulate
 
@@ -30,12 +30,12 @@ def _scenario(plant: dict[str, Any], **initial: float) -> scenario.Scenario:
                               "plant": plant})  # fmt: skip
 
 
-@pytest.mark.parametrize(("kind", "cls"), [("model", ModelPlant), ("mujoco", MujocoPlant)])
+@pytest.mark.parametrize(("kind", "cls"), [("model", ModelContact), ("mujoco", MujocoContact)])
 def test_the_scenario_names_its_plant(kind: str, cls: type) -> None:
     sc = _scenario({"type": kind})
     robot = LaggingRobot(2, 1.0 / sc.rate_hz, sc.lag, sc.delay)
     plant = scenario_plant(sc, robot, sc.initial[None].repeat(2, axis=0), [sc.geometry])
-    assert isinstance(plant, cls) and plant.robot is robot
+    assert isinstance(plant.contact, cls) and plant.robot is robot
     features, response = plant.sense()
     assert features.shape == response.shape == (2, 5)
 
@@ -89,9 +89,9 @@ def test_the_plant_keys_build_the_scene_they_name() -> None:
     sc = _scenario(keys)
     robot = LaggingRobot(1, 1.0 / sc.rate_hz, sc.lag, sc.delay)
     plant = scenario_plant(sc, robot, sc.initial[None], [sc.geometry])
-    assert isinstance(plant, MujocoPlant)
-    model = plant.scenes[0].model
-    assert model.opt.timestep == 1e-4 and plant.substeps == 10
+    assert isinstance(plant.contact, MujocoContact)
+    model = plant.contact.scenes[0].model
+    assert model.opt.timestep == 1e-4 and plant.contact.substeps == 10
     assert model.geom_solref[0][0] == 1e-3
     assert model.ngeom == 2 * 64 + 1 + 1  # facets, chamfer facets, bottom, peg
     facet = model.geom_size[0]  # half the rim, half a facet's width, half the bore's depth
