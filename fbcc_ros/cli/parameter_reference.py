@@ -7,7 +7,7 @@ A test checks that the committed file is what this prints, so the reference cann
 
 from __future__ import annotations
 
-import sys
+import argparse
 from pathlib import Path
 
 from fbcc_ros.core.errors import command
@@ -62,8 +62,11 @@ def markdown() -> str:
 
 @command("parameter_reference")
 def main(argv: list[str] | None = None) -> int:
-    args = sys.argv[1:] if argv is None else argv
-    out = Path(args[0]) if args else Path("docs/parameters.md")
+    parser = argparse.ArgumentParser(prog="python -m fbcc_ros.cli.parameter_reference",
+                                     description=__doc__.splitlines()[0])  # fmt: skip
+    parser.add_argument("out", nargs="?", type=Path, default=Path("docs/parameters.md"),
+                        help="the Markdown file to write (default: docs/parameters.md)")
+    out = parser.parse_args(argv).out
     out.write_text(markdown())
     print(f"wrote {out}")
     return 0

@@ -42,6 +42,7 @@ NODES = {
 #: Changed values where a generic change would be invalid or meaningless.
 CHANGED: dict[str, Any] = {
     "scenario": "config/scenarios/fig9_clearance.yaml",
+    "plant": "mujoco",  # the scenario's is the model
     "payload.inertia": [1e-3, 0.0, 0.0, 0.0, 1e-3, 0.0, 0.0, 0.0, 1e-3],
     "deadband": [0.1, 0.01],
     "robot": "panda",
