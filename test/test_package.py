@@ -217,13 +217,14 @@ def test_readme_python_examples_run(capsys: pytest.CaptureFixture[str]) -> None:
 #: What each layer may import of the package (any other fbcc_ros import is an arrow against
 #: the layers): the core is ROS-free, the stages build on it, the ROS plumbing on the stages'
 #: parameter tables, the bag on the stages and the codec, the nodes on all of these; the
-#: harness (a cell run) and the command-line tools sit on top.
+#: studies on the core alone; the harness (a cell run) and the command-line tools sit on top.
 LAYERS = {
     "core": {"core"},
     "pipeline": {"core", "pipeline"},
     "ros": {"core", "pipeline", "ros"},
     "bag": {"core", "pipeline", "ros", "bag"},
     "nodes": {"core", "pipeline", "ros", "bag", "harness", "nodes"},
+    "studies": {"core", "studies"},
 }
 
 

@@ -3,8 +3,9 @@
 
 Each period the hand is set where it holds an undeflected peg at the given features in the
 true hole, MuJoCo runs one period of its timesteps, and the peg's features and the wrench it
-exerts on the hole are read: the wrench about the {H} origin moved to the pair's acting point,
-as the model's response (:func:`~fbcc_ros.core.compensation.wrench.response_from_wrench`).
+exerted on the hole over the period (its mean, as a force/torque sensor reads it) are read:
+the wrench about the {H} origin moved to the pair's acting point, as the model's response
+(:func:`~fbcc_ros.core.compensation.wrench.response_from_wrench`).
 Each trial is its own scene, stepped in turn (a trial costs what one scene costs).
 """
 
@@ -64,6 +65,6 @@ class MujocoContact:
             scene.set_hand(hand[i])
             scene.step(self.substeps)
             features[i] = scene.features()
-            response[i] = response_from_wrench(scene.wrench_on_hole(), self.acting[i])
+            response[i] = response_from_wrench(scene.mean_wrench_on_hole(), self.acting[i])
         self._placed = True
         return features, response

@@ -27,6 +27,10 @@ about the {H} origin, SI units, angles in radians (the MJCF says ``angle="radian
   ``solimp``, with an elliptic friction cone, a raised ``impratio`` and the no-slip solver, so
   that the peg sticks below mu N and slides at it (:class:`Contact`). Its figures are checked
   against physics (``test/core/sim/test_mujoco_scene.py``), never against the law's results.
+* **The pruning**: each timestep collides the peg only with the bottom and the boxes it can
+  provably touch in it (:meth:`MujocoPegHole.step`): the same contacts, bitwise the same
+  trajectory, nearly three times as fast with the peg along the wall (collision detection was
+  most of a timestep).
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ from fbcc_ros.core.contact.features import R_ALIGNED, features_from_pose, pose_f
 from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim.holder import Holder
+from fbcc_ros.core.sim.plants.pruning import PRUNE_MOVE, FacetPruning
 from fbcc_ros.core.sim.plants.spec import MAX_TIMESTEP, TIMESTEPS_PER_TIMECONST, PlantSpec
 
 #: The grip's axial stiffness [N/m] and about z [N·m/rad]: the holder is rigid there (position
@@ -167,7 +172,7 @@ def _bore(pair: PegHole, part: Part) -> str:
                          f'class="hole"/>')  # fmt: skip
     outer = R + part.rim
     boxes.append(
-        f'<geom type="box" size="{outer} {outer} {pair.base_thickness / 2}" '
+        f'<geom name="bottom" type="box" size="{outer} {outer} {pair.base_thickness / 2}" '
         f'pos="0 0 {-pair.hole_depth - pair.base_thickness / 2}" class="hole"/>'
     )
     return "\n".join(boxes)
@@ -235,10 +240,12 @@ class MujocoPegHole:
         holder: The grip's stiffness at the grip point (None: :data:`RIGID`).
         part: The bore's facets, chamfer, rim; the peg's length, grip and mass.
         contact: MuJoCo's contact parameters.
+        prune: Skip, each timestep, the hole's boxes the peg cannot touch in it (:meth:`step`;
+            the same physics, False only to test that).
     """
 
     def __init__(self, pair: PegHole, holder: Holder | None = None, part: Part | None = None,
-                 contact: Contact | None = None) -> None:  # fmt: skip
+                 contact: Contact | None = None, prune: bool = True) -> None:  # fmt: skip
         self.pair, self.part = pair, part or Part()
         self.model = mujoco.MjModel.from_xml_string(scene_xml(pair, holder, self.part, contact))
         self.data = mujoco.MjData(self.model)
@@ -248,7 +255,11 @@ class MujocoPegHole:
         fixture = self.model.body("fixture").id
         self._hole_geoms = set(np.flatnonzero(self.model.geom_bodyid == fixture).tolist())
         self._force = np.zeros(6)
+        self._joints = np.array([self.model.joint(f"grip{i}").id for i in range(6)])
+        self._impulse, self._steps = np.zeros(self.model.nv), 0
         mujoco.mj_forward(self.model, self.data)
+        self.prune = prune
+        self._pruning = FacetPruning(self.model, self.data, pair, self.part)
 
     def set_hand(self, features: FloatArray) -> None:
         """The hand at the pose that holds the peg, undeflected in its grip, at ``features``
@@ -275,16 +286,61 @@ class MujocoPegHole:
         mujoco.mj_forward(self.model, self.data)
 
     def step(self, n: int = 1) -> None:
-        mujoco.mj_step(self.model, self.data, nstep=n)
+        """``n`` MuJoCo timesteps, each colliding the peg only with the bottom and the boxes it
+        may touch (:class:`~.pruning.FacetPruning`); the model whole again on return. The
+        contact's force on the peg is summed over them (:meth:`mean_wrench_on_hole`)."""
+        m, d, q, pruning = self.model, self.data, self.data.qpos, self._pruning
+        self._impulse[:] = 0.0
+        pruned = self.prune and pruning.prunable
+        rho, (move_xy, move_z) = pruning.rho, PRUNE_MOVE
+        ref: list[float] | None = None
+        try:
+            for _ in range(n):
+                if pruned:
+                    # a timestep's collision uses the qpos it starts with (mj_step: checks,
+                    # then mj_forward, then the integrator): the peg's pose, now, exactly
+                    x, y, z, a, b, _c = q.tolist()
+                    if ref is not None:
+                        turn = (abs(a - ref[3]) + abs(b - ref[4])) * rho
+                        if not (math.hypot(x - ref[0], y - ref[1]) + turn <= move_xy
+                                and abs(z - ref[2]) + turn <= move_z):  # fmt: skip
+                            ref = None
+                    if ref is None and pruning.prune(x, y, z, a, b):
+                        ref = [x, y, z, a, b]
+                mujoco.mj_step(m, d)
+                # the constraint forces of that step's collision, in the grip's joints
+                self._impulse += d.qfrc_constraint
+        finally:
+            if pruned:
+                pruning.restore()
+        self._steps = n
 
     def features(self) -> FloatArray:
         """The peg's true features in {H}: (dx, dy, l, theta_x, theta_y)."""
         rot = self.data.xmat[self._peg].reshape(3, 3) @ R_ALIGNED  # R_HP
         return features_from_pose(rot, self.data.site_xpos[self._tip], self.pair.peg_radius)
 
+    def mean_wrench_on_hole(self) -> FloatArray:
+        """The wrench the peg exerted on the hole over the last :meth:`step`, its mean over the
+        timesteps, as :meth:`wrench_on_hole` gives it: what a force/torque sensor reads over
+        the period (a soft contact at rest on the wall can let go for a timestep in eight).
+
+        The grip's joints carry all the constraint force on the peg: its slides (world x, y, z)
+        the force F, its hinges the moment M about the grip point g along their axes
+        (``tau_j = a_j . M``); the hole bears ``-F`` and ``-(M + g x F)`` about its origin.
+        The axes and g are the period's last: the grip point moves microns in a period, 0.1 %
+        of the moment."""
+        mean = self._impulse / max(self._steps, 1)
+        d, joints = self.data, self._joints
+        force = mean[:3]
+        moment = np.linalg.solve(d.xaxis[joints[3:]], mean[3:])
+        grip = d.xanchor[joints[3]]  # the hinges turn about it (the slides place it)
+        return -np.concatenate([force, moment + np.cross(grip, force)])
+
     def wrench_on_hole(self) -> FloatArray:
         """The wrench the peg exerts on the hole, summed over their contacts, about the {H}
-        origin in {H} axes: (fx, fy, fz, mx, my, mz) [N, N·m]."""
+        origin in {H} axes: (fx, fy, fz, mx, my, mz) [N, N·m]; the contacts of the last
+        timestep's collision."""
         total = np.zeros(6)
         d = self.data
         for i in range(d.ncon):
@@ -294,9 +350,10 @@ class MujocoPegHole:
                 continue
             mujoco.mj_contactForce(self.model, d, i, self._force)
             frame = con.frame.reshape(3, 3)  # rows: the normal (geom1 -> geom2), tangents
-            f = frame.T @ self._force[:3]  # the force geom1 exerts on geom2, world axes
-            if g1 in self._hole_geoms:
-                f = -f  # the hole is geom1: the peg's force on it is the opposite
+            # the force and the torsional friction's torque (condim 4) geom1 exerts on geom2
+            f, torque = frame.T @ self._force[:3], frame.T @ self._force[3:]
+            if g1 in self._hole_geoms:  # the hole is geom1: the peg's on it is the opposite
+                f, torque = -f, -torque
             total[:3] += f
-            total[3:] += np.cross(con.pos, f)
+            total[3:] += np.cross(con.pos, f) + torque
         return total
