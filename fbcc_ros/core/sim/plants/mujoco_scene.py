@@ -259,7 +259,8 @@ class MujocoPegHole:
         self._impulse, self._steps = np.zeros(self.model.nv), 0
         mujoco.mj_forward(self.model, self.data)
         self.prune = prune
-        self._pruning = FacetPruning(self.model, self.data, pair, self.part)
+        self._pruning = FacetPruning(self.model, self.data, pair.peg_radius,
+                                     self.part.peg_length, self.part.grip)  # fmt: skip
 
     def set_hand(self, features: FloatArray) -> None:
         """The hand at the pose that holds the peg, undeflected in its grip, at ``features``

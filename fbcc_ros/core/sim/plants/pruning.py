@@ -13,21 +13,19 @@ unpruned give equal trajectories; no facet left out touches the peg at 200 rando
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import mujoco
 import numpy as np
 
-from fbcc_ros.core.contact.model import PegHole
-
 #: How far [m] a point of the peg may move (sideways, along z) before
-#: :meth:`MujocoPegHole.step` finds again the hole's boxes it can touch: a larger move keeps
-#: more boxes in the collision, a smaller one finds them more often. Sideways it is kept small
-#: (the bore's facets lie within a fraction of a micrometre of a peg against its wall), along
-#: z larger (the boxes' z-ranges and the peg's length are millimetres).
+#: :meth:`~.mujoco_scene.MujocoPegHole.step` finds again the hole's boxes it can touch: a
+#: larger move keeps more boxes in the collision, a smaller one finds them more often.
+#: Sideways it is kept small (the bore's facets lie within a fraction of a micrometre of a peg
+#: against its wall), along z larger (the boxes' z-ranges and the peg's length are mm).
 PRUNE_MOVE = (1.0e-7, 5.0e-6)
-#: The pruning's slack [m]: 10 times :data:`CCD_TOLERANCE` (GJK goes on to a contact when its
-#: distance, an upper bound of the true one, is within it), far above the poses' rounding.
+#: The pruning's slack [m]: 10 times :data:`~.mujoco_scene.CCD_TOLERANCE` (GJK goes on to a
+#: contact when its distance, an upper bound of the true one, is within it), far above the
+#: poses' rounding.
 PRUNE_SLACK = 1.0e-8
 
 
@@ -35,8 +33,8 @@ class FacetPruning:
     """The half-spaces that hold each facet, and which facets the peg may touch (module doc).
     :meth:`prune` switches the others' collision off, :meth:`restore` back on."""
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, pair: PegHole,
-                 part: Any) -> None:  # fmt: skip
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, radius: float,
+                 length: float, grip: float) -> None:  # fmt: skip
         """The half-spaces ``n . x >= o``, each within a z-range, that hold each bore and
         chamfer box, from its 8 corners (a box is their convex hull; the fixture is static):
         n the box's x axis (its inner face's normal) and, for a tilted box, that axis made
@@ -45,11 +43,11 @@ class FacetPruning:
 
         Args:
             model, data: The scene's, after ``mj_forward`` (the fixture's poses are final).
-            pair: The peg's radius.
-            part: The peg's length and grip (:class:`~.mujoco_scene.Part`).
+            radius, length, grip: The peg's radius, length and grip point's height above its
+                tip [m] (:class:`~.mujoco_scene.Part`).
         """
         m, d = model, data
-        self.pair, self.part = pair, part
+        self._radius, self._half = radius, 0.5 * length
         bottom = m.geom("bottom").id
         fixture = np.flatnonzero(m.geom_bodyid == m.geom_bodyid[bottom])
         first = int(fixture.min())
@@ -94,10 +92,10 @@ class FacetPruning:
         self._contype = m.geom_contype[first:bottom]
         self._conaffinity = m.geom_conaffinity[first:bottom]
         self._contype0, self._conaffinity0 = self._contype.copy(), self._conaffinity.copy()
-        L, g = self.part.peg_length, self.part.grip
+        L, g = length, grip
         self._axial = L / 2 - g  # the cylinder's centre on the body's z axis
         # the farthest a point of the peg lies from the body's origin (the grip point)
-        self.rho = math.hypot(max(g, L - g), self.pair.peg_radius)
+        self.rho = math.hypot(max(g, L - g), radius)
         # MuJoCo resets a blown-up state to qpos0 within mj_step and collides there: the boxes
         # the peg may touch at rest stay in (none in a clearance fit)
         self._at_rest = np.zeros(self._nbox, dtype=bool)
@@ -130,7 +128,7 @@ class FacetPruning:
         if not (uz > 0.1 and max(abs(x), abs(y), abs(z)) < 1.0):  # sideways, or blown up
             self.restore()
             return False
-        r, half, k = self.pair.peg_radius, 0.5 * self.part.peg_length, self._axial
+        r, half, k = self._radius, self._half, self._axial
         cx, cy, cz = x + k * ux, y + k * uy, z + k * uz  # the cylinder's centre
         w = r * math.sqrt(max(0.0, 1.0 - uz * uz))
         ends: list[tuple[float, float, float]] = []
