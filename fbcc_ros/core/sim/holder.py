@@ -160,7 +160,10 @@ class Holder:
 
 #: ATI Gamma F/T sensor (datasheet calculated stiffness, as recalled: Kx = Ky, Ktx = Kty).
 ATI_GAMMA = Holder(9.1e6, 1.1e4)
-#: KUKA LBR iiwa in position control, referred to a grip point ~0.1 m past the flange (estimate).
+#: KUKA LBR iiwa in position control: each joint's stiffness [N·m/rad] (estimate: harmonic drive
+#: and torque sensor in series; the table above), what MuJoCo's LBR gives its joint servos.
+LBR_JOINT_STIFFNESS = 1.0e4
+#: The same arm referred to a grip point ~0.1 m past the flange (estimate).
 LBR_IIWA_ESTIMATE = Holder(5e4, 1e3)
 #: A parallel gripper with friction pads holding the peg's top (estimate).
 PARALLEL_GRIPPER_ESTIMATE = Holder(5e4, 30.0)

@@ -39,7 +39,7 @@ def test_the_arm_holds_a_pose_under_gravity_and_would_sag_without_compensation()
     sagging.model.body_gravcomp[:] = 0.0
     sagging.step(2000)
     # the servo's spring alone: tau_g / k at the shoulder
-    assert np.abs(sagging.q - BENT).max() > 0.01
+    assert np.abs(sagging.q - BENT).max() > 0.003
 
 
 def test_the_arm_follows_a_commanded_step() -> None:

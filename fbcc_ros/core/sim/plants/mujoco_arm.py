@@ -6,12 +6,13 @@ links' weight compensated as the LBR's controller does.
   kept as bodies (``fusestatic`` off), so that the flange and the tool frame are there by name.
   Nothing is downloaded: no meshes, no menagerie.
 * **The servos** are a spring :data:`JOINT_STIFFNESS` and a damper :data:`JOINT_DAMPING` to the
-  commanded position, per joint. They are a modelling choice, not a KUKA figure: KUKA publishes
-  no position-mode stiffness. They are MuJoCo Menagerie's ``kuka_iiwa_14`` gains (2000 N·m/rad,
-  200 N·m·s/rad), taken as they are, not fitted to anything of ours.
+  commanded position, per joint. KUKA publishes no position-mode stiffness: the spring is the
+  package's one estimate of the LBR's joint stiffness (:data:`~fbcc_ros.core.sim.holder.
+  LBR_JOINT_STIFFNESS`, 1e4 N·m/rad: harmonic drive and torque sensor in series), the damper
+  MuJoCo Menagerie's ``kuka_iiwa_14`` (200 N·m·s/rad).
 * **Gravity** acts on every link and is compensated on each (``gravcomp``): the LBR's
   controller adds the model's gravity torques to its command, so the servos hold a pose without
-  a sag of tau_g / k (without it, 0.031 rad at the shoulder of an iiwa 14 bent at the elbow).
+  a sag of tau_g / k (without it, 6 mrad at the shoulder of an iiwa 14 bent at the elbow).
 
 This is the arm alone; the peg-in-hole scene (:mod:`.mujoco_scene`) is not yet carried by it.
 Tests: ``test/core/sim/test_mujoco_arm.py`` (the flange where Pinocchio puts it, a pose held
@@ -23,10 +24,12 @@ from __future__ import annotations
 import mujoco
 
 from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.sim.holder import LBR_JOINT_STIFFNESS
 
 #: Each joint's servo: stiffness [N·m/rad] and damping [N·m·s/rad] (module doc).
-JOINT_STIFFNESS, JOINT_DAMPING = 2000.0, 200.0
-#: The arm's timestep [s]: its servos (2000 N·m/rad on the wrist's ~0.01 kg·m²) resolve at 1 ms.
+JOINT_STIFFNESS, JOINT_DAMPING = LBR_JOINT_STIFFNESS, 200.0
+#: The arm's timestep [s] alone (its damping is integrated implicitly: a step settles to 1e-12
+#: at 1 ms as at 0.2 ms).
 ARM_TIMESTEP = 1.0e-3
 _KEEP_FRAMES = '<mujoco><compiler fusestatic="false" discardvisual="true"/></mujoco>'
 
