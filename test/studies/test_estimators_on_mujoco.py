@@ -1,0 +1,24 @@
+"""The estimators scored on each plant's truth: one insertion per plant, scored in the hole."""
+
+from __future__ import annotations
+
+import pytest
+
+from fbcc_ros.studies.estimators_on_mujoco import METHODS, estimators_on_plants, main
+
+
+def test_each_plant_scores_the_estimators_on_its_own_truth() -> None:
+    results = estimators_on_plants(trials=1)
+    assert set(results) == {"model", "mujoco"}
+    for r in results.values():
+        for method in METHODS:
+            assert r[method]["samples"] > 100 and 0.0 <= r[method]["accuracy"] <= 1.0
+    # on the model it was designed on, the estimator with its history names most states
+    assert results["model"]["estimator, history"]["accuracy"] > 0.8
+
+
+def test_a_bad_trial_count_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["--trials", "0"])
+    assert exc.value.code == 2
+    assert "--trials 0: expected an integer >= 1" in capsys.readouterr().err
