@@ -13,8 +13,9 @@ def test_each_plant_scores_the_estimators_on_its_own_truth() -> None:
     for r in results.values():
         for method in METHODS:
             assert r[method]["samples"] > 100 and 0.0 <= r[method]["accuracy"] <= 1.0
-    # on the model it was designed on, the estimator with its history names most states
-    assert results["model"]["estimator, history"]["accuracy"] > 0.8
+    # on either plant the estimator's history names more states right than one response
+    for r in results.values():
+        assert r["estimator, history"]["accuracy"] > r["estimator, one response"]["accuracy"]
 
 
 def test_a_bad_trial_count_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
