@@ -62,6 +62,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.trials < 1:
         parser.error(f"--trials {args.trials}: expected an integer >= 1")
+    if args.seed < 0:
+        parser.error(f"--seed {args.seed}: expected an integer >= 0")
     print(markdown(estimators_on_plants(args.trials, args.seed)))
     return 0
 

@@ -18,8 +18,12 @@ def test_each_plant_scores_the_estimators_on_its_own_truth() -> None:
         assert r["estimator, history"]["accuracy"] > r["estimator, one response"]["accuracy"]
 
 
-def test_a_bad_trial_count_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize(("argv", "said"), [
+    (["--trials", "0"], "--trials 0: expected an integer >= 1"),
+    (["--seed", "-1"], "--seed -1: expected an integer >= 0")])  # fmt: skip
+def test_bad_input_is_refused_naming_it(argv: list[str], said: str,
+                                        capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
     with pytest.raises(SystemExit) as exc:
-        main(["--trials", "0"])
+        main(argv)
     assert exc.value.code == 2
-    assert "--trials 0: expected an integer >= 1" in capsys.readouterr().err
+    assert said in capsys.readouterr().err
