@@ -11,19 +11,20 @@ part that no controller could push in (quasi-static push-in force above 2/3 of t
 drawn again and counted, unless ``--all-parts``. Every law runs the same trials, on all local
 cores by default or on a Dask cluster (``--scheduler``), with identical results for one seed.
 
-DIR receives ``trials.csv`` (one row per trial and law, with its material and the noise seed of
-its batch), ``summary.json`` (the simulator's success, assembled within the force limit, with its
-95 % Wilson interval; percentiles of the metrics; the goals of the robustness study with the
-measured figures, whose success is a trial that met every per-trial goal; every trial that missed
-one, with what reproduces it: :mod:`fbcc_ros.core.sim.study_goals`), ``histograms.png`` and, when k
-is drawn, ``stiffness.png`` (success, peak Fz and insertion time against k); with the robust law,
-``friction.png`` (the friction its lever measured against each part's μ; ``summary.json``'s
-``friction_estimate`` gives its error).
+DIR receives ``trials.csv`` (one row per trial and law, with its material), ``summary.json`` (the
+simulator's success, assembled within the force limit, with its 95 % Wilson interval; percentiles
+of the metrics; the goals of the robustness study with the measured figures, whose success is a
+trial that met every per-trial goal; every trial that missed one, with what reproduces it:
+:mod:`fbcc_ros.core.sim.study_goals`), ``histograms.png`` and, when k is drawn, ``stiffness.png``
+(success, peak Fz and insertion time against k); with the robust law, ``friction.png`` (the
+friction its lever measured against each part's μ; ``summary.json``'s ``friction_estimate`` gives
+its error).
 
-    fbcc-montecarlo SCENARIO.yaml --trials 10000 ... --out DIR --trial 2653 [5412 ...]
+    fbcc-montecarlo SCENARIO.yaml ... --seed 0 --out DIR --trial 2653 [5412 ...]
 
-replays those trials of the same study (the same arguments) instead of running it: only their
-batches are simulated, and DIR/trial_N receives what ``fbcc-sim`` writes for one run
+replays those trials of the study instead of running it. A trial is its seed: trial N of
+``--seed S`` is the same in a study of any size (its draw and its noise are its own), so only
+those trials are simulated, and DIR/trial_N receives what ``fbcc-sim`` writes for one run
 (``summary.json``, ``trajectory.csv``, ``trajectories.png``, ``planes.png``), per law.
 """
 
@@ -247,22 +248,17 @@ def _range(parser: argparse.ArgumentParser, flag: str, value: list[float] | None
     return lo, hi
 
 
-def replay(parser: argparse.ArgumentParser, sc: scenario_io.Scenario, laws: list[str],
-           trials: Trials, indices: list[int], out: Path) -> int:  # fmt: skip
+def replay(sc: scenario_io.Scenario, laws: list[str], trials: Trials, out: Path) -> int:
     """``--trial``: each trial's run per law, written as fbcc-sim writes one."""
-    for index in indices:
-        if not 0 <= index < len(trials):
-            parser.error(f"--trial {index} is not allowed: expected a trial of the study, "
-                         f"0 to {len(trials) - 1} (--trials {len(trials)})")  # fmt: skip
     print(SUMMARY_HEADER)
-    for index in indices:
+    for index in trials.numbers:
         runs = [(law, replay_trial(sc, law, trials, index)) for law in laws]
         folder = out / f"trial_{index}"
         folder.mkdir(exist_ok=True)
         write_run(runs, folder)
         for law, res in runs:
             print(summary_line(f"trial {index} {law}", res.summary))
-    print("wrote " + ", ".join(f"{out}/trial_{index}/" for index in indices))
+    print("wrote " + ", ".join(f"{out}/trial_{index}/" for index in trials.numbers))
     return 0
 
 
@@ -294,8 +290,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--all-parts", action="store_true",
                         help="keep parts whose push-in force exceeds 2/3 of the force limit")
     parser.add_argument("--trial", type=int, nargs="+", metavar="N",
-                        help="replay these trials of the study (same arguments) with their "
-                        "trajectories and figures, instead of running it")
+                        help="replay these trials of the study (same arguments but --trials) "
+                        "with their trajectories and figures, instead of running it")
     args = parser.parse_args(argv)
     for flag, value in (("--trials", args.trials), ("--workers", args.workers)):
         if value < 1:
@@ -312,6 +308,9 @@ def main(argv: list[str] | None = None) -> int:
     friction = _range(parser, "--friction", args.friction, 1e-3, 0.99, "")
     if args.seed < 0:
         parser.error(f"--seed={args.seed} is not allowed: expected an integer >= 0")
+    for index in args.trial or ():
+        if index < 0:
+            parser.error(f"--trial {index} is not allowed: expected a trial number >= 0")
     if args.plant is not None:
         sc = sc.on_plant(args.plant)
     if args.holder is not None:
@@ -325,14 +324,15 @@ def main(argv: list[str] | None = None) -> int:
         math.radians(args.max_tilt_deg),
         stiffness=None if stiffness_gpa is None else (stiffness_gpa[0] * 1e9,
                                                       stiffness_gpa[1] * 1e9),
-        friction=friction, feasible_force=feasible,
+        friction=friction, feasible_force=feasible, numbers=args.trial,
     )  # fmt: skip
     if args.trial:
-        return replay(parser, sc, laws, trials, args.trial, out)
+        return replay(sc, laws, trials, out)
+    unit = "trials" if BATCH[sc.plant.type] == 1 else "batches"  # the tasks counted
     start = time.perf_counter()
     # a ConfigError (no scheduler answering, dask missing) ends in one line (@command)
     results = run_montecarlo(sc, laws, trials, workers=args.workers,
-                             progress=ProgressBar(f"{sc.name}: {', '.join(laws)}"),
+                             progress=ProgressBar(f"{sc.name}: {', '.join(laws)}", unit),
                              scheduler=args.scheduler)  # fmt: skip
     elapsed = time.perf_counter() - start
     summary: dict[str, Any] = {}
@@ -342,7 +342,7 @@ def main(argv: list[str] | None = None) -> int:
         summary[law] = summarise(o)
         missed[law] = missed_goals(o, deadline)
         summary[law]["goals"] = goals(o, trials, missed[law], deadline)
-        summary[law]["failures"] = failures(o, trials, missed[law], args.seed, sc.seed, BATCH)
+        summary[law]["failures"] = failures(o, trials, missed[law])
         summary[law]["friction_estimate"] = friction_accuracy(o, trials)
     summary["_run"] = {
         "scenario": str(args.scenario), "trials": args.trials, "seed": args.seed,
@@ -376,9 +376,8 @@ def main(argv: list[str] | None = None) -> int:
                   f"|error| median {mu['abs_error_median']:.3f}, p95 "
                   f"{mu['abs_error_p95']:.3f}")  # fmt: skip
         for f in s["failures"][:10]:
-            print(f"    failed trial {f['trial']} (seed {f['seed']}, noise seed "
-                  f"{f['noise_seed']}): {f['why']}; k {f['stiffness']:.3g} Pa, "
-                  f"mu {f['friction']:.2f}")  # fmt: skip
+            print(f"    failed trial {f['trial']} (--seed {f['seed']} --trial {f['trial']}): "
+              f"{f['why']}; k {f['stiffness']:.3g} Pa, mu {f['friction']:.2f}")  # fmt: skip
     if trials.redrawn:
         print(f"{trials.redrawn} part(s) drawn again: push-in force above {feasible:.0f} N")
     where = f"the cluster at {args.scheduler}" if args.scheduler else f"{args.workers} worker(s)"

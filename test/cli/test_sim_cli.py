@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 from pathlib import Path
@@ -81,6 +82,12 @@ def test_montecarlo_runs_its_trials_on_the_plant_named(tmp_path: Path) -> None:
         assert summary["_run"]["plant"]["type"] == "mujoco"
         rows.append((out / "trials.csv").read_text())
     assert rows[0] == rows[1]
+    # a trial is its seed on MuJoCo too: trial 2 replayed alone is the study's row
+    assert montecarlo.main([str(scenario), "--out", str(tmp_path / "again"), "--plant",
+                            "mujoco", "--trial", "2"]) == 0  # fmt: skip
+    again = json.loads((tmp_path / "again" / "trial_2" / "summary.json").read_text())
+    row = list(csv.DictReader(io.StringIO(rows[0])))[2]
+    assert again["peak_fz"] == pytest.approx(float(row["peak_fz"]), rel=1e-3)
     model = tmp_path / "model"
     assert montecarlo.main([str(scenario), "--out", str(model), "--trials", "4",
                             "--workers", "1"]) == 0  # fmt: skip
@@ -202,13 +209,15 @@ def test_montecarlo_replays_a_trial_of_a_study(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """--trial N with the study's arguments writes that trial's run as fbcc-sim does, with the
-    study's figures for it; a trial outside the study is refused."""
+    study's figures for it, whatever --trials says (a trial is its seed); a negative trial is
+    refused."""
     study = [str(SCENARIOS / "robust_clearance.yaml"), "--trials", "5", "--workers", "1",
              "--laws", "fbcc", "--stiffness-gpa", "1", "100", "--seed", "6"]  # fmt: skip
     assert montecarlo.main([*study, "--out", str(tmp_path / "study")]) == 0
     with (tmp_path / "study" / "trials.csv").open() as f:
         row = list(csv.DictReader(f))[3]
-    assert montecarlo.main([*study, "--out", str(tmp_path / "again"), "--trial", "3"]) == 0
+    bigger = [*study[:2], "40", *study[3:]]
+    assert montecarlo.main([*bigger, "--out", str(tmp_path / "again"), "--trial", "3"]) == 0
     folder = tmp_path / "again" / "trial_3"
     summary = json.loads((folder / "summary.json").read_text())
     assert summary["peak_fz"] == pytest.approx(float(row["peak_fz"]), rel=1e-3)
@@ -220,8 +229,8 @@ def test_montecarlo_replays_a_trial_of_a_study(
     assert (folder / "trajectory.csv").exists()
     assert not (tmp_path / "again" / "trials.csv").exists()  # the study is not run again
     with pytest.raises(SystemExit) as exc:
-        montecarlo.main([*study, "--out", str(tmp_path / "bad"), "--trial", "5"])
-    assert exc.value.code == 2 and "--trial 5" in capsys.readouterr().err
+        montecarlo.main([*study, "--out", str(tmp_path / "bad"), "--trial", "-5"])
+    assert exc.value.code == 2 and "--trial -5" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(

@@ -14,10 +14,12 @@ A part whose quasi-static push-in force (:meth:`PegHole.push_in_force` at L) exc
 ``feasible_force`` is given such a part is drawn again (its deviations kept) and counted in
 :attr:`Trials.redrawn`, so that the study measures the controller, not the impossible.
 
-Every law sees the same trials (same seed). The trials are split in batches that run in lockstep
-(:func:`simulation.simulate`) on a pool of local processes or on a Dask cluster
-(:mod:`fbcc_ros.core.sim.parallel`); batch j's sensor noise is seeded with ``scenario.seed + j``,
-so a trial's outcome depends only on the seeds, not on where or on how many workers it ran.
+**A trial is its seed.** Trial i of a study with seed s draws from its own generator,
+``SeedSequence([s, i])``, and its sensor noise from ``SeedSequence([scenario.seed, s, i])``: its
+outcome depends on (scenario, s, i) only, not on how many trials the study has, in which batch
+or on which worker it ran, so ``--seed s --trial i`` replays it alone. Every law sees the same
+trials. The trials are split in batches that run in lockstep (:func:`simulation.simulate`) on a
+pool of local processes or on a Dask cluster (:mod:`fbcc_ros.core.sim.parallel`).
 """
 
 from __future__ import annotations
@@ -34,28 +36,36 @@ from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim.parallel import run_tasks
 from fbcc_ros.core.sim.scenario import Scenario
-from fbcc_ros.core.sim.simulation import Outcome, SimResult, Trajectory, simulate, state_sequence
+from fbcc_ros.core.sim.simulation import Outcome, SimResult, simulate, state_sequence
 
 DEFAULT_MAX_OFFSET = 1e-4  # [m]
 DEFAULT_MAX_TILT = math.radians(2.0)  # [rad]
-#: Trials per lockstep batch (and per task of the pool).
-BATCH = 128
+#: Trials per lockstep batch (and per task of the pool), per plant: the model's batch is
+#: vectorised; MuJoCo steps its trials in turn, so one trial per task keeps every core busy.
+BATCH = {"model": 128, "mujoco": 1}
 
 
 @dataclasses.dataclass(frozen=True)
 class Trials:
-    """The random part of N trials: deviations (N, 5), true geometries, and how many parts were
-    drawn again because they could not be inserted (see the module doc)."""
+    """The random part of N trials: deviations (N, 5), true geometries, the study's seed and
+    each trial's number in the study, and how many parts were drawn again because they could
+    not be inserted (see the module doc)."""
 
     initial: FloatArray
     geometries: tuple[PegHole, ...]
+    seed: int
+    numbers: tuple[int, ...]
     redrawn: int = 0
 
     def __len__(self) -> int:
         return len(self.initial)
 
     def part(self, s: slice) -> Trials:
-        return Trials(self.initial[s], self.geometries[s])
+        return Trials(self.initial[s], self.geometries[s], self.seed, self.numbers[s])
+
+    def noise_seeds(self, scenario_seed: int) -> list[list[int]]:
+        """Each trial's noise seed (module doc)."""
+        return [[scenario_seed, self.seed, i] for i in self.numbers]
 
 
 def draw_trials(
@@ -68,44 +78,56 @@ def draw_trials(
     stiffness: tuple[float, float] | None = None,
     friction: tuple[float, float] | None = None,
     feasible_force: float | None = None,
+    numbers: Sequence[int] | None = None,
 ) -> Trials:
-    """N random trials around the nominal pair (see the module doc).
+    """N random trials around the nominal pair, trials 0 to N-1 of the study ``seed`` (see the
+    module doc).
 
     Args:
+        numbers: Draw these trials of the study instead (each the same as in any study of that
+            seed that has it); N is then ignored.
         stiffness: (low, high) of a log-uniform k [Pa]; None keeps the nominal k.
         friction: (low, high) of a uniform mu; None keeps the nominal mu.
         feasible_force: Largest quasi-static push-in force at L [N] of a part kept; None keeps
             every part.
     """
-    if not (isinstance(n, int) and n >= 1):
-        raise ConfigError("trials", n, "an integer >= 1")
+    if numbers is None:
+        if not (isinstance(n, int) and n >= 1):
+            raise ConfigError("trials", n, "an integer >= 1")
+        numbers = range(n)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ConfigError("seed", seed, "an integer >= 0")
+    for i in numbers:
+        if isinstance(i, bool) or not isinstance(i, int) or i < 0:
+            raise ConfigError("trial", i, "an integer >= 0")
     for name, bounds, low in (("stiffness", stiffness, 0.0), ("friction", friction, 0.0)):
         if bounds is not None and not (low < bounds[0] <= bounds[1]):
             raise ConfigError(name, list(bounds), f"(low, high) with {low:g} < low <= high")
-    rng = np.random.default_rng(seed)
-    initial = np.zeros((n, 5))
-    initial[:, :2] = rng.uniform(-max_offset, max_offset, (n, 2))
-    initial[:, 3:] = rng.uniform(-max_tilt, max_tilt, (n, 2))
+    initial = np.zeros((len(numbers), 5))
     geometries: list[PegHole] = []
     redrawn = 0
-    while len(geometries) < n:
-        g = perturbed(nominal, rng, friction_spread=0.0, stiffness_octaves=0.0)
-        if stiffness is not None:
-            k = 10.0 ** rng.uniform(math.log10(stiffness[0]), math.log10(stiffness[1]))
-            g = g.replace(stiffness=float(k))
-        if friction is not None:
-            g = g.replace(friction=float(rng.uniform(*friction)))
-        if feasible_force is not None and g.push_in_force() > feasible_force:
+    for row, i in enumerate(numbers):
+        rng = np.random.default_rng([seed, i])  # the trial's own draw (module doc)
+        initial[row, :2] = rng.uniform(-max_offset, max_offset, 2)
+        initial[row, 3:] = rng.uniform(-max_tilt, max_tilt, 2)
+        while True:
+            g = perturbed(nominal, rng, friction_spread=0.0, stiffness_octaves=0.0)
+            if stiffness is not None:
+                k = 10.0 ** rng.uniform(math.log10(stiffness[0]), math.log10(stiffness[1]))
+                g = g.replace(stiffness=float(k))
+            if friction is not None:
+                g = g.replace(friction=float(rng.uniform(*friction)))
+            if feasible_force is None or g.push_in_force() <= feasible_force:
+                break
             redrawn += 1
-            if redrawn > 100 * n:
+            if redrawn > 100 * len(numbers):
                 raise ConfigError(
                     "feasible_force", feasible_force,
                     "a force most drawn parts can be pushed in with (100 draws per trial "
                     "were all too tight: is the fit an interference too stiff to insert?)",
                 )  # fmt: skip
-            continue
         geometries.append(g)
-    return Trials(initial, tuple(geometries), redrawn)
+    return Trials(initial, tuple(geometries), seed, tuple(numbers), redrawn)
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
@@ -118,32 +140,27 @@ def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float,
     return max(0.0, centre - half), min(1.0, centre + half)
 
 
-def _run_part(sc: Scenario, law: str, trials: Trials, seed: int) -> Outcome:
-    outcome, _ = simulate(
-        sc, law, initial=trials.initial, geometries=trials.geometries, record=False, seed=seed
-    )
+def _run_part(sc: Scenario, law: str, trials: Trials) -> Outcome:
+    outcome, _ = simulate(sc, law, initial=trials.initial, geometries=trials.geometries,
+                          record=False, noise_seeds=trials.noise_seeds(sc.seed))  # fmt: skip
     return outcome
 
 
-def replay_trial(sc: Scenario, law: str, trials: Trials, index: int,
-                 batch: int = BATCH) -> SimResult:  # fmt: skip
-    """Trial ``index`` of a study again, with its full trajectory: its batch is simulated with
-    the batch's noise seed (the noise of a lockstep batch is drawn for all its rows at once),
-    and the trial's row kept. The result's scenario carries the trial's true part and deviation;
+def replay_trial(sc: Scenario, law: str, trials: Trials, number: int) -> SimResult:
+    """Trial ``number`` of the study again, alone, with its full trajectory (a trial is its
+    seed: the module doc). The result's scenario carries the trial's true part and deviation;
     its summary is the study's row for that trial."""
-    if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(trials):
-        raise ConfigError("trial", index, f"an index in [0, {len(trials) - 1}] of the study")
-    j, row = divmod(index, batch)
-    part = trials.part(slice(j * batch, min((j + 1) * batch, len(trials))))
-    outcome, traj = simulate(sc, law, initial=part.initial, geometries=part.geometries,
-                             record=True, seed=sc.seed + j)  # fmt: skip
+    if number not in trials.numbers:
+        raise ConfigError("trial", number, f"a trial drawn: {list(trials.numbers)[:10]}...")
+    row = trials.numbers.index(number)
+    one = trials.part(slice(row, row + 1))
+    outcome, traj = simulate(sc, law, initial=one.initial, geometries=one.geometries,
+                             noise_seeds=one.noise_seeds(sc.seed))  # fmt: skip
     assert traj is not None  # record=True
-    arrays = (getattr(traj, f.name) for f in dataclasses.fields(traj))
-    one = Trajectory(*(a if a.ndim == 1 else a[:, row : row + 1] for a in arrays))
-    true = dataclasses.replace(sc, geometry=part.geometries[row], initial=part.initial[row])
-    summary = outcome.summary(row)
-    summary["state_sequence"] = state_sequence(one, true.geometry)
-    return SimResult(true, law, summary, one)
+    true = dataclasses.replace(sc, geometry=one.geometries[0], initial=one.initial[0])
+    summary = outcome.summary(0)
+    summary["state_sequence"] = state_sequence(traj, true.geometry)
+    return SimResult(true, law, summary, traj)
 
 
 def concat(outcomes: Sequence[Outcome]) -> Outcome:
@@ -158,7 +175,7 @@ def run_montecarlo(
     trials: Trials,
     *,
     workers: int | None = 2,
-    batch: int = BATCH,
+    batch: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     scheduler: str | None = None,
 ) -> dict[str, Outcome]:
@@ -169,19 +186,20 @@ def run_montecarlo(
         laws: Names of the laws to run.
         trials: From :func:`draw_trials`.
         workers: Local processes (None: every core); 1 runs in this process (no pool).
-        batch: Trials per task (the lockstep batch size).
+        batch: Trials per task (the lockstep batch size); default the plant's
+            (:data:`BATCH`). The outcomes do not depend on it (module doc).
         progress: Called with (tasks done, tasks total) as tasks finish.
         scheduler: Address of a running Dask scheduler to run the tasks on instead
             (:func:`fbcc_ros.core.sim.parallel.run_tasks`); the results are the same.
     """
     if workers is not None and not (isinstance(workers, int) and workers >= 1):
         raise ConfigError("workers", workers, "an integer >= 1")
-    parts = [slice(i, min(i + batch, len(trials))) for i in range(0, len(trials), batch)]
-    # one noise seed per batch, derived from the scenario's seed: reproducible at any worker count
+    size = batch or BATCH[sc.plant.type]
+    parts = [slice(i, min(i + size, len(trials))) for i in range(0, len(trials), size)]
     tasks = [(law, j, part) for law in laws for j, part in enumerate(parts)]
     outcomes = run_tasks(
         _run_part,
-        [(sc, law, trials.part(part), sc.seed + j) for law, j, part in tasks],
+        [(sc, law, trials.part(part)) for law, j, part in tasks],
         workers=workers, scheduler=scheduler, progress=progress,
     )  # fmt: skip
     results = {(law, j): o for (law, j, _), o in zip(tasks, outcomes, strict=True)}

@@ -185,8 +185,11 @@ class _Metrics:
         outside_t = np.where(assembled, -np.inf, t[:, None] + 1.0 / self.sc.rate_hz)
         self.last_outside = np.maximum(self.last_outside, outside_t.max(axis=0))
         tail = slice(max(0, self.resid_from - k0), None)
-        self.resid_f += np.linalg.norm(w[tail, :, :2], axis=-1).sum(axis=0)
-        self.resid_m += np.linalg.norm(w[tail, :, 3:5], axis=-1).sum(axis=0)
+        # summed in time order (cumsum) whatever N: a trial's figures do not depend on its
+        # batch (np.sum pairs the terms of one trial differently from a batch's)
+        if len(w[tail]):
+            self.resid_f += np.cumsum(np.linalg.norm(w[tail, :, :2], axis=-1), axis=0)[-1]
+            self.resid_m += np.cumsum(np.linalg.norm(w[tail, :, 3:5], axis=-1), axis=0)[-1]
         self.final = x[-1].copy()
         self.assembled_at_end = assembled[-1]
 
@@ -229,6 +232,7 @@ def simulate(
     limits: SafetyLimits | None = None,
     wrap: Callable[[Law], Any] | None = None,
     make_plant: MakePlant | None = None,
+    noise_seeds: Sequence[Sequence[int]] | None = None,
 ) -> tuple[Outcome, Trajectory | None]:
     """Run N trials of the closed loop in lockstep.
 
@@ -238,19 +242,25 @@ def simulate(
         initial: Deviations of the hole, (N, 5); default the scenario's, N = 1.
         geometries: True geometry per trial (N of them); default the nominal one.
         record: Keep the full signals (memory T × N × 25 floats).
-        seed: Seed of the sensor noise; default the scenario's.
+        seed: Seed of the sensor noise, one stream for the batch; default the scenario's.
         limits: The supervisor's step limits; default the controller's.
         wrap: Puts something around the law (the same interface: ``reset``, ``step``,
             ``stopped``, ``trips``), e.g. :class:`~fbcc_ros.core.control.state_gate.StateGatedLaw`.
         make_plant: Builds the plant from ``(scenario, robot, deviations, true pairs)``
             (:mod:`fbcc_ros.core.sim.plants`); default :func:`scenario_plant`.
+        noise_seeds: Each trial's noise seed (N of them, each a list of integers) instead of
+            ``seed``: its noise then does not depend on the batch around it (a Monte Carlo
+            trial's, :mod:`fbcc_ros.core.sim.montecarlo`).
     """
     dev = np.atleast_2d(sc.initial if initial is None else np.asarray(initial, dtype=float))
     n = len(dev)
     pairs = list(geometries) if geometries is not None else [sc.geometry]
     if len(pairs) not in (1, n):
         raise ConfigError("geometries", f"{len(pairs)} pairs", f"1 or {n}, one per trial")
+    if noise_seeds is not None and len(noise_seeds) != n:
+        raise ConfigError("noise_seeds", f"{len(noise_seeds)} seeds", f"{n}, one per trial")
     rng = np.random.default_rng(sc.seed if seed is None else seed)
+    rngs = None if noise_seeds is None else [np.random.default_rng(list(s)) for s in noise_seeds]
     law = make_law(law_name, sc.geometry, sc.params, sc.insertion)
     if wrap is not None:
         law = wrap(law)
@@ -267,9 +277,12 @@ def simulate(
     steps = sc.steps
     for k0 in range(0, steps, _CHUNK):
         kk = min(_CHUNK, steps - k0)
+        # a chunk at a time: from the batch's stream, or from each trial's own
+        noise = sc.noise * (rng.standard_normal((kk, n, 5)) if rngs is None else
+                            np.stack([g.standard_normal((kk, 5)) for g in rngs], axis=1))
         for j in range(kk):
             x, w = plant.sense()
-            measured = w + sc.bias + sc.noise * rng.standard_normal((n, 5))
+            measured = w + sc.bias + noise[j]
             buf_p[j] = pose
             command = limits.clip(command, law.step(measured, pose, dt))
             plant.command(command)

@@ -115,16 +115,16 @@ def _per_trial(assembled: np.ndarray, value: np.ndarray, limit: float) -> dict[s
             "met": float(within.mean()) >= GOAL_SUCCESS}  # fmt: skip
 
 
-def failures(outcome: Outcome, trials: Trials, missed: list[list[str]], seed: int,
-             noise_seed: int, batch: int, limit: int = 200) -> list[dict[str, Any]]:
+def failures(outcome: Outcome, trials: Trials, missed: list[list[str]],
+             limit: int = 200) -> list[dict[str, Any]]:  # fmt: skip
     """Every trial that missed a goal (up to ``limit``; :func:`missed_goals`) with what
-    reproduces it: the study's seed and the trial's index, its part and deviation, and the
-    noise seed of its batch."""
+    reproduces it: the study's seed and the trial's number (a trial is its seed:
+    :mod:`~fbcc_ros.core.sim.montecarlo`), its part and deviation."""
     rows = []
     for i in [i for i, why in enumerate(missed) if why][:limit]:
         g, d = trials.geometries[i], trials.initial[i]
         rows.append({
-            "trial": int(i), "seed": seed, "noise_seed": noise_seed + int(i) // batch,
+            "trial": trials.numbers[i], "seed": trials.seed,
             "why": "; ".join(missed[i]),
             "stiffness": g.stiffness, "friction": g.friction, "hole_radius": g.hole_radius,
             "peg_radius": g.peg_radius, "deviation": [float(d[j]) for j in (0, 1, 3, 4)],

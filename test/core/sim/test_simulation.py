@@ -128,12 +128,12 @@ def test_montecarlo_is_the_same_at_any_worker_count() -> None:
 
 
 def test_a_replayed_trial_is_the_studys_row_with_its_trajectory() -> None:
-    """Trial 5 of a study in batches of 4 (the second batch, its second row): replayed alone it
-    has the study's metrics exactly, the noise of its batch, and its own part and deviation."""
+    """A trial is its seed: trial 5 of a study in batches of 4 (the second batch, its second
+    row), replayed alone, has the study's metrics exactly, and its own part and deviation."""
     sc = validate({**paper_scenario("clearance"), "duration": 1.0})
     trials = draw_trials(sc.geometry, 7, seed=3, stiffness=(1e8, 1e10))
     study = run_montecarlo(sc, ["fbcc"], trials, workers=1, batch=4)["fbcc"]
-    again = replay_trial(sc, "fbcc", trials, 5, batch=4)
+    again = replay_trial(sc, "fbcc", trials, 5)
     expected = study.summary(5)
     for key, value in expected.items():
         assert again.summary[key] == value, key
@@ -142,10 +142,32 @@ def test_a_replayed_trial_is_the_studys_row_with_its_trajectory() -> None:
                                   study.final_features[5])  # fmt: skip
     assert again.scenario.geometry == trials.geometries[5]
     np.testing.assert_array_equal(again.scenario.initial, trials.initial[5])
-    other = replay_trial(sc, "fbcc", trials, 5, batch=3)  # another batch, other noise
-    assert other.summary["peak_fz"] != expected["peak_fz"]
     with pytest.raises(ConfigError, match="trial"):
         replay_trial(sc, "fbcc", trials, 7)
+
+
+def test_a_trial_is_its_seed_whatever_the_study_around_it() -> None:
+    """Trial 5 of seed 3 draws the same part and deviation, and meets the same noise, in a study
+    of 7 trials, of 40, or drawn alone; in batches of any size; another seed's trial 5 is
+    another trial."""
+    sc = validate({**paper_scenario("clearance"), "duration": 0.5})
+    small = draw_trials(sc.geometry, 7, seed=3, friction=(0.1, 0.5))
+    large = draw_trials(sc.geometry, 40, seed=3, friction=(0.1, 0.5))
+    alone = draw_trials(sc.geometry, 1, seed=3, friction=(0.1, 0.5), numbers=[5])
+    for t in (large, alone):
+        row = t.numbers.index(5)
+        np.testing.assert_array_equal(t.initial[row], small.initial[5])
+        assert t.geometries[row] == small.geometries[5]
+    other = draw_trials(sc.geometry, 7, seed=4, friction=(0.1, 0.5))
+    assert other.geometries[5] != small.geometries[5]
+    a = run_montecarlo(sc, ["fbcc"], small, workers=1, batch=7)["fbcc"]
+    b = run_montecarlo(sc, ["fbcc"], large, workers=1, batch=3)["fbcc"]
+    np.testing.assert_array_equal(a.final_features[5], b.final_features[5])
+    assert a.peak_fz[5] == b.peak_fz[5]
+    with pytest.raises(ConfigError, match="trial"):
+        draw_trials(sc.geometry, 1, seed=3, numbers=[-1])
+    with pytest.raises(ConfigError, match="seed"):
+        draw_trials(sc.geometry, 1, seed=-3)
 
 
 def test_trials_spread_within_their_bounds() -> None:
