@@ -6,13 +6,19 @@ This is the plant of :mod:`fbcc_ros.core.sim.simulation` in joint space, for the
   believes) displaced by the scenario's unknown deviation ``x_dev``: the true hole is placed so
   that a peg at the believed features 0 has the true features ``x_dev``,
   ``T_base_Htrue = T_base_H P(0) P(x_dev)^-1`` with ``P(x)`` the peg pose of features x;
-* **the arm** follows its joint command with the first-order lag of the scenario
-  (``q += (1 - exp(-dt/tau)) (q_cmd - q)``), clipped to its position and velocity limits; a
-  command reaches it the scenario's ``robot.delay`` after it was given;
-* **the contact** is the scenario's plant (``plant.type``) with the true geometry (it may
-  differ from the nominal one the controller knows: Table II tolerances): the analytic model,
-  or MuJoCo's peg in its grip (:mod:`fbcc_ros.core.sim.plants`), driven by the hand where the
-  arm's joints put it;
+* **the arm and the contact** are the scenario's plant (``plant.type``), with the true
+  geometry (it may differ from the nominal one the controller knows: Table II tolerances):
+
+  - ``model``: the arm follows its joint command with the first-order lag of the scenario
+    (``q += (1 - exp(-dt/tau)) (q_cmd - q)``), clipped to its position and velocity limits,
+    and the hand where its joints put it drives eq. 5-13 with the holder
+    (:mod:`fbcc_ros.core.sim.plants`);
+  - ``mujoco``: the LBR in MuJoCo carries the peg in its grip over MuJoCo's hole, one model
+    (:mod:`fbcc_ros.core.sim.plants.mujoco_cell`): the joints are where its servos get under
+    the contact's load (the scenario's lag does not apply), and the external joint torques
+    are MuJoCo's;
+
+  a command reaches the arm the scenario's ``robot.delay`` after it was given;
 * **the sensor** sits under the true hole at its acting point, axes as the hole's, and carries a
   fixture; it reads the contact wrench, the fixture's weight, the bias and white noise (the
   scenario's ``sensor`` values, given in response space).
@@ -26,6 +32,7 @@ from __future__ import annotations
 import collections
 import dataclasses
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -44,6 +51,9 @@ from fbcc_ros.core.sim.arm_sensing import external_torques, wrench_at_frame
 from fbcc_ros.core.sim.plants.plant import Contact
 from fbcc_ros.core.sim.scenario import Scenario
 from fbcc_ros.core.sim.simulation import scenario_contact
+
+if TYPE_CHECKING:
+    from fbcc_ros.core.sim.plants.mujoco_cell import MujocoCell
 
 #: The hole fixture on the mock sensor: 1.5 kg, its centre of mass 2 cm above the sensor.
 DEFAULT_FIXTURE = Payload(1.5, (0.0, 0.0, 0.02))
@@ -99,7 +109,6 @@ class MockCell:
         self.sc = sc
         self.robot = robot
         self.geometry = geometry or sc.geometry
-        self.contact: Contact = scenario_contact(sc, 1, [self.geometry], dt)
         r = sc.geometry.peg_radius
         self.believed = CellKinematics(robot, hole_in_base, r)
         deviation = sc.initial.copy()
@@ -109,6 +118,17 @@ class MockCell:
         # the arm starts with the peg at the believed features 0: over the hole, tip at its top
         self.q = solve_ik(robot, self.believed.peg_target(np.zeros(5), 0.0), robot.home).q
         self.q_cmd = self.q.copy()
+        #: the arm and the contact in MuJoCo (module doc), or None: the lagging arm and
+        #: ``contact``
+        self.mujoco: MujocoCell | None = None
+        self.contact: Contact | None = None
+        if sc.plant.type == "mujoco":
+            from fbcc_ros.core.sim.plants.mujoco_cell import MujocoCell
+
+            self.mujoco = MujocoCell.of(sc, robot, true_hole, self.q, self.geometry,
+                                        dt or 1.0 / sc.rate_hz)  # fmt: skip
+        else:
+            self.contact = scenario_contact(sc, 1, [self.geometry], dt)
         #: the cell's time [s] and the commands given, not yet at the arm (robot.delay)
         self.t = 0.0
         self._late: collections.deque[tuple[float, FloatArray]] = collections.deque()
@@ -162,12 +182,17 @@ class MockCell:
             self.q_cmd = self._late.popleft()[1]
         self.t += dt
         q_prev = self.q
-        # q += (1 - exp(-dt/tau)) (q_cmd - q), within the velocity and position limits
-        reach = self.robot.velocity_limit * dt
-        step = (alpha * (self.q_cmd - q_prev)).clip(-reach, reach)
-        self.q = (q_prev + step).clip(self.robot.lower, self.robot.upper)
-        features, responses = self.contact.touch(self.truth.features(self.q)[None])
-        x, response = features[0], responses[0]
+        if self.mujoco is not None:
+            self.mujoco.command(self.q_cmd)
+            self.q, x, response = self.mujoco.step()
+        else:
+            assert self.contact is not None
+            # q += (1 - exp(-dt/tau)) (q_cmd - q), within the velocity and position limits
+            reach = self.robot.velocity_limit * dt
+            step = (alpha * (self.q_cmd - q_prev)).clip(-reach, reach)
+            self.q = (q_prev + step).clip(self.robot.lower, self.robot.upper)
+            features, responses = self.contact.touch(self.truth.features(self.q)[None])
+            x, response = features[0], responses[0]
         x[2] = max(x[2], 0.0)  # above the hole: no contact
         at_acting = wrench_from_response(response)
         at_origin = self._to_origin @ at_acting  # tau_O = tau_A + p_A x f
@@ -189,7 +214,10 @@ class MockCell:
 
     def external_torques(self) -> FloatArray:
         """The external joint torques the contact of the last step causes, ``J^T w`` (the
-        arm's own sensing: :mod:`fbcc_ros.core.sim.arm_sensing`) [N m]."""
+        arm's own sensing: :mod:`fbcc_ros.core.sim.arm_sensing`), MuJoCo's in its cell
+        [N m]."""
+        if self.mujoco is not None:
+            return self.mujoco.external_torques()
         if not self._on_hole.any():
             return np.zeros(self.robot.nq)
         return external_torques(self.robot, self.q, self.robot.flange_frame,

@@ -22,6 +22,7 @@ from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim.holder import Holder
 from fbcc_ros.core.sim.plants.mujoco_scene import Contact, MujocoPegHole, Part
+from fbcc_ros.core.sim.plants.spec import PlantSpec
 
 
 class MujocoContact:
@@ -49,11 +50,8 @@ class MujocoContact:
     @classmethod
     def of(cls, sc: Any, n: int, pairs: Sequence[PegHole], dt: float) -> MujocoContact:
         """The contact of a scenario (:class:`~fbcc_ros.core.sim.scenario.Scenario`): its
-        holder, its ``plant`` section's bore, timestep and contact time constant."""
-        spec = sc.plant
-        part = Part(facets=spec.facets, chamfer=spec.chamfer, rim=spec.rim)
-        contact = Contact(timeconst=spec.timeconst, timestep=spec.timestep)
-        return cls(n, pairs, sc.holder, dt, part, contact)
+        holder, its ``plant`` section's scene (:func:`scene_of`)."""
+        return cls(n, pairs, sc.holder, dt, *scene_of(sc.plant))
 
     def touch(self, hand: FloatArray) -> tuple[FloatArray, FloatArray]:
         """(:meth:`~fbcc_ros.core.sim.plants.plant.Contact.touch`) The first touch places each
@@ -68,3 +66,10 @@ class MujocoContact:
             response[i] = response_from_wrench(scene.mean_wrench_on_hole(), self.acting[i])
         self._placed = True
         return features, response
+
+
+def scene_of(spec: PlantSpec) -> tuple[Part, Contact]:
+    """The bore and MuJoCo's contact of a scenario's ``plant`` section: its facets, chamfer and
+    rim; its timestep and contact time constant."""
+    return (Part(facets=spec.facets, chamfer=spec.chamfer, rim=spec.rim),
+            Contact(timeconst=spec.timeconst, timestep=spec.timestep))  # fmt: skip

@@ -14,9 +14,9 @@ links' weight compensated as the LBR's controller does.
   controller adds the model's gravity torques to its command, so the servos hold a pose without
   a sag of tau_g / k (without it, 6 mrad at the shoulder of an iiwa 14 bent at the elbow).
 
-This is the arm alone; the peg-in-hole scene (:mod:`.mujoco_scene`) is not yet carried by it.
-Tests: ``test/core/sim/test_mujoco_arm.py`` (the flange where Pinocchio puts it, a pose held
-under gravity, a commanded step followed).
+The mock cell's MuJoCo arm carries the peg over the hole (:mod:`.mujoco_cell`). Tests:
+``test/core/sim/test_mujoco_arm.py`` (the flange where Pinocchio puts it, a pose held under
+gravity, a commanded step followed).
 """
 
 from __future__ import annotations
@@ -35,15 +35,22 @@ _KEEP_FRAMES = '<mujoco><compiler fusestatic="false" discardvisual="true"/></muj
 
 
 def arm_model(urdf_text: str, timestep: float = ARM_TIMESTEP) -> mujoco.MjModel:
+    """The arm of this URDF (module doc), compiled."""
+    spec = arm_spec(urdf_text)
+    spec.option.timestep = timestep
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    return spec.compile()
+
+
+def arm_spec(urdf_text: str) -> mujoco.MjSpec:
     """The arm of this URDF (module doc): servos on every revolute joint, in the URDF's order,
-    its links' weight compensated."""
+    its links' weight compensated; its links touch nothing (the URDFs carry no collision
+    shapes)."""
     head, sep, rest = urdf_text.partition("<robot")
     if not sep:
         raise ValueError("not a URDF: no <robot> element")
     close = rest.index(">") + 1
     spec = mujoco.MjSpec.from_string(head + sep + rest[:close] + _KEEP_FRAMES + rest[close:])
-    spec.option.timestep = timestep
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     for body in spec.bodies[1:]:
         body.gravcomp = 1.0
     for joint in spec.joints:
@@ -51,7 +58,9 @@ def arm_model(urdf_text: str, timestep: float = ARM_TIMESTEP) -> mujoco.MjModel:
         servo.name, servo.target = joint.name, joint.name
         servo.trntype = mujoco.mjtTrn.mjTRN_JOINT
         servo.set_to_position(kp=JOINT_STIFFNESS, kv=JOINT_DAMPING)
-    return spec.compile()
+    for geom in spec.geoms:
+        geom.contype = geom.conaffinity = 0
+    return spec
 
 
 class MujocoArm:

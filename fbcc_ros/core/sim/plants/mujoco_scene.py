@@ -28,9 +28,7 @@ about the {H} origin, SI units, angles in radians (the MJCF says ``angle="radian
   that the peg sticks below mu N and slides at it (:class:`Contact`). Its figures are checked
   against physics (``test/core/sim/test_mujoco_scene.py``), never against the law's results.
 * **The pruning**: each timestep collides the peg only with the bottom and the boxes it can
-  provably touch in it (:meth:`MujocoPegHole.step`): the same contacts, bitwise the same
-  trajectory, nearly three times as fast with the peg along the wall (collision detection was
-  most of a timestep).
+  provably touch in it (:meth:`MujocoPegHole.step`, :mod:`.pruning`).
 """
 
 from __future__ import annotations
@@ -132,11 +130,15 @@ def _quat_z(angle: float) -> str:
     return f"{math.cos(angle / 2)} 0 0 {math.sin(angle / 2)}"
 
 
-def _quat(rotation: FloatArray) -> str:
-    """A rotation matrix as MJCF's quaternion (w x y z)."""
+def quaternion(rotation: FloatArray) -> FloatArray:
+    """A rotation matrix as MuJoCo's quaternion (w x y z)."""
     quat = np.empty(4)
     mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation, dtype=float).ravel())
-    return " ".join(map(str, quat))
+    return quat
+
+
+def _quat(rotation: FloatArray) -> str:
+    return " ".join(map(str, quaternion(rotation)))
 
 
 #: A rotation of 45° about y: x to (1, 0, -1)/sqrt(2), z to (1, 0, 1)/sqrt(2).
@@ -178,11 +180,11 @@ def _bore(pair: PegHole, part: Part) -> str:
     return "\n".join(boxes)
 
 
-def scene_xml(pair: PegHole, holder: Holder | None = None, part: Part | None = None,
-              contact: Contact | None = None) -> str:  # fmt: skip
-    """The MJCF of the scene: {H} is the world's origin; the peg's six joints at its grip point,
-    each a position servo whose target is the hand (:meth:`MujocoPegHole.set_hand`)."""
-    part, contact = part or Part(), contact or Contact()
+def peg_xml(pair: PegHole, holder: Holder | None = None, part: Part | None = None
+            ) -> tuple[str, str]:  # fmt: skip
+    """The peg's body (its six grip joints at its grip point, each a position servo whose
+    target is the hand, :meth:`MujocoPegHole.set_hand`) and its servos, as MJCF."""
+    part = part or Part()
     grip = RIGID if holder is None or holder.is_rigid else holder
     m, r, L, g = part.peg_mass, pair.peg_radius, part.peg_length, part.grip
     tilt_inertia = m * (3 * r * r + L * L) / 12 + m * (g - L / 2) ** 2  # about the grip point
@@ -199,35 +201,51 @@ def scene_xml(pair: PegHole, holder: Holder | None = None, part: Part | None = N
         damping = 2.0 * math.sqrt(k * (inertia + armature))  # critical
         joints.append(f'<joint name="grip{i}" type="{kind}" axis="{axis}" '
                       f'armature="{armature}"/>')  # fmt: skip
-        servos.append(f'<position joint="grip{i}" kp="{k}" kv="{damping}" '
+        servos.append(f'<position name="grip{i}" joint="grip{i}" kp="{k}" kv="{damping}" '
                       'ctrllimited="false"/>')  # fmt: skip
-    solimp = " ".join(map(str, contact.solimp))
-    mu = pair.friction
+    body = f"""<body name="peg">
+      {"".join(joints)}
+      <geom name="peg" type="cylinder" size="{r} {L / 2}" pos="0 0 {L / 2 - g}"
+            mass="{m}" rgba="0.8 0.5 0.2 1"/>
+      <site name="tip" pos="0 0 {-g}"/>
+    </body>"""
+    return body, "".join(servos)
+
+
+def scene_xml(pair: PegHole, holder: Holder | None = None, part: Part | None = None,
+              contact: Contact | None = None, peg: bool = True) -> str:  # fmt: skip
+    """The MJCF of the scene: {H} is the world's origin; the peg (:func:`peg_xml`) with its
+    grip joints in the world, unless ``peg`` is False (the fixture alone, for an arm to carry
+    the peg: :mod:`.mujoco_cell`)."""
+    part, contact = part or Part(), contact or Contact()
+    body, servos = peg_xml(pair, holder, part) if peg else ("", "")
     return f"""<mujoco model="fbcc_peg_in_hole">
   <compiler angle="radian"/>
   <option timestep="{contact.timestep}" integrator="implicitfast" cone="elliptic"
           impratio="{contact.impratio}" noslip_iterations="{contact.noslip}" gravity="0 0 -9.81"
           ccd_tolerance="{CCD_TOLERANCE}"/>
-  <default>
-    <geom solref="{contact.timeconst} {contact.dampratio}" solimp="{solimp}"
-          friction="{mu} 0.005 0.0001" condim="4" margin="0"/>
-    <default class="hole"><geom rgba="0.6 0.6 0.65 1"/></default>
-  </default>
+  {contact_defaults(pair, contact)}
   <worldbody>
     <body name="fixture">
       {_bore(pair, part)}
     </body>
-    <body name="peg">
-      {"".join(joints)}
-      <geom name="peg" type="cylinder" size="{r} {L / 2}" pos="0 0 {L / 2 - g}"
-            mass="{m}" rgba="0.8 0.5 0.2 1"/>
-      <site name="tip" pos="0 0 {-g}"/>
-    </body>
+    {body}
   </worldbody>
   <actuator>
-    {"".join(servos)}
+    {servos}
   </actuator>
 </mujoco>"""
+
+
+def contact_defaults(pair: PegHole, contact: Contact) -> str:
+    """The MJCF defaults every geom of the peg and the hole takes: the contact (:class:`Contact`)
+    and the pair's friction."""
+    solimp = " ".join(map(str, contact.solimp))
+    return f"""<default>
+    <geom solref="{contact.timeconst} {contact.dampratio}" solimp="{solimp}"
+          friction="{pair.friction} 0.005 0.0001" condim="4" margin="0"/>
+    <default class="hole"><geom rgba="0.6 0.6 0.65 1"/></default>
+  </default>"""
 
 
 class MujocoPegHole:
@@ -242,20 +260,28 @@ class MujocoPegHole:
         contact: MuJoCo's contact parameters.
         prune: Skip, each timestep, the hole's boxes the peg cannot touch in it (:meth:`step`;
             the same physics, False only to test that).
+        model: The scene built around this one instead (its world {H}, its peg and grip as
+            :func:`peg_xml`'s, the part's): an arm carrying the peg (:mod:`.mujoco_cell`).
     """
 
     def __init__(self, pair: PegHole, holder: Holder | None = None, part: Part | None = None,
-                 contact: Contact | None = None, prune: bool = True) -> None:  # fmt: skip
+                 contact: Contact | None = None, prune: bool = True,
+                 model: mujoco.MjModel | None = None) -> None:  # fmt: skip
         self.pair, self.part = pair, part or Part()
-        self.model = mujoco.MjModel.from_xml_string(scene_xml(pair, holder, self.part, contact))
+        self.model = model or mujoco.MjModel.from_xml_string(
+            scene_xml(pair, holder, self.part, contact))
         self.data = mujoco.MjData(self.model)
         self.dt = float(self.model.opt.timestep)
         self._peg = self.model.body("peg").id
+        #: the grip is carried (by an arm): the peg's pose is not its grip joints' coordinates
+        self.carried = int(self.model.body_parentid[self._peg]) != 0
         self._tip = self.model.site("tip").id
         fixture = self.model.body("fixture").id
         self._hole_geoms = set(np.flatnonzero(self.model.geom_bodyid == fixture).tolist())
         self._force = np.zeros(6)
         self._joints = np.array([self.model.joint(f"grip{i}").id for i in range(6)])
+        self._dofs = self.model.jnt_dofadr[self._joints]
+        self._servos = np.array([self.model.actuator(f"grip{i}").id for i in range(6)])
         self._impulse, self._steps = np.zeros(self.model.nv), 0
         mujoco.mj_forward(self.model, self.data)
         self.prune = prune
@@ -265,8 +291,8 @@ class MujocoPegHole:
     def set_hand(self, features: FloatArray) -> None:
         """The hand at the pose that holds the peg, undeflected in its grip, at ``features``
         ``(dx, dy, l, theta_x, theta_y)`` (:func:`~fbcc_ros.core.contact.features.
-        pose_from_features`, zero spin): the grip's targets."""
-        self.data.ctrl[:] = self._grip_coordinates(features)
+        pose_from_features`, zero spin): the grip's targets. Not for a carried grip."""
+        self.data.ctrl[self._servos] = self._grip_coordinates(features)
 
     def _grip_coordinates(self, features: FloatArray) -> FloatArray:
         """The grip joints' coordinates of the peg at ``features``: the grip point, then the
@@ -282,7 +308,7 @@ class MujocoPegHole:
     def place(self, features: FloatArray) -> None:
         """The hand and the peg, at rest, undeflected at ``features`` (a trial's start)."""
         self.set_hand(features)
-        self.data.qpos[:] = self.data.ctrl
+        self.data.qpos[self._dofs] = self.data.ctrl[self._servos]
         self.data.qvel[:] = 0.0
         mujoco.mj_forward(self.model, self.data)
 
@@ -295,12 +321,20 @@ class MujocoPegHole:
         pruned = self.prune and pruning.prunable
         rho, (move_xy, move_z) = pruning.rho, PRUNE_MOVE
         ref: list[float] | None = None
+        peg, carried = self._peg, self.carried
         try:
             for _ in range(n):
                 if pruned:
                     # a timestep's collision uses the qpos it starts with (mj_step: checks,
-                    # then mj_forward, then the integrator): the peg's pose, now, exactly
-                    x, y, z, a, b, _c = q.tolist()
+                    # then mj_forward, then the integrator): the peg's pose, now, exactly;
+                    # carried, from the kinematics of that qpos (R = Rx(a) Ry(b) Rz(c))
+                    if carried:
+                        mujoco.mj_kinematics(m, d)
+                        x, y, z = d.xpos[peg].tolist()
+                        r = d.xmat[peg].tolist()
+                        a, b = math.atan2(-r[5], r[8]), math.asin(max(-1.0, min(1.0, r[2])))
+                    else:
+                        x, y, z, a, b, _c = q.tolist()
                     if ref is not None:
                         turn = (abs(a - ref[3]) + abs(b - ref[4])) * rho
                         if not (math.hypot(x - ref[0], y - ref[1]) + turn <= move_xy
@@ -321,19 +355,25 @@ class MujocoPegHole:
         rot = self.data.xmat[self._peg].reshape(3, 3) @ R_ALIGNED  # R_HP
         return features_from_pose(rot, self.data.site_xpos[self._tip], self.pair.peg_radius)
 
+    def period_constraint_force(self) -> FloatArray:
+        """The constraint forces in every joint (``qfrc_constraint``), their mean over the
+        timesteps of the last :meth:`step` [N, N·m]."""
+        return self._impulse / max(self._steps, 1)
+
     def mean_wrench_on_hole(self) -> FloatArray:
         """The wrench the peg exerted on the hole over the last :meth:`step`, its mean over the
         timesteps, as :meth:`wrench_on_hole` gives it: what a force/torque sensor reads over
         the period (a soft contact at rest on the wall can let go for a timestep in eight).
 
-        The grip's joints carry all the constraint force on the peg: its slides (world x, y, z)
-        the force F, its hinges the moment M about the grip point g along their axes
-        (``tau_j = a_j . M``); the hole bears ``-F`` and ``-(M + g x F)`` about its origin.
-        The axes and g are the period's last: the grip point moves microns in a period, 0.1 %
-        of the moment."""
-        mean = self._impulse / max(self._steps, 1)
+        The grip's joints carry all the constraint force on the peg: its slides (the world's
+        x, y, z; the tool's when carried) the force F, its hinges the moment M about the grip
+        point g along their axes (``tau_j = a_j . M``); the hole bears ``-F`` and
+        ``-(M + g x F)`` about its origin. The axes and g are the period's last: the grip point
+        moves microns in a period, 0.1 % of the moment."""
+        mean = self.period_constraint_force()[self._dofs]
         d, joints = self.data, self._joints
-        force = mean[:3]
+        # the slides' axes are the world's unless an arm carries the grip
+        force = np.linalg.solve(d.xaxis[joints[:3]], mean[:3]) if self.carried else mean[:3]
         moment = np.linalg.solve(d.xaxis[joints[3:]], mean[3:])
         grip = d.xanchor[joints[3]]  # the hinges turn about it (the slides place it)
         return -np.concatenate([force, moment + np.cross(grip, force)])
