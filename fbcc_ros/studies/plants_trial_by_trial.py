@@ -1,0 +1,94 @@
+"""Two Monte Carlo studies of the same trials on two plants, trial by trial: which trials each
+assembled, and success and peak Fz against the drawn friction.
+
+A trial is its seed (:mod:`fbcc_ros.core.sim.montecarlo`): ``fbcc-montecarlo`` with the same
+scenario, seed and draws, once with ``--plant model`` and once with ``--plant mujoco``, runs
+each trial's part, deviation and noise on both plants, so their rows can be paired.
+
+Command: ``python -m fbcc_ros.studies.plants_trial_by_trial MODEL/trials.csv MUJOCO/trials.csv``
+prints the tables of docs/plant.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import itertools
+import sys
+from pathlib import Path
+
+import numpy as np
+
+#: The friction bins of the tables (their edges).
+FRICTION_EDGES = (0.1, 0.2, 0.3, 0.4, 0.5)
+
+
+def read_trials(path: Path, law: str) -> dict[int, dict[str, float]]:
+    """The rows of ``law`` in a study's ``trials.csv``, by trial number."""
+    with path.open(newline="") as f:
+        return {int(r["trial"]): {k: float(v) for k, v in r.items() if k not in ("law", "trial")}
+                for r in csv.DictReader(f) if r["law"] == law}  # fmt: skip
+
+
+def pair_trials(a: dict[int, dict[str, float]], b: dict[int, dict[str, float]]
+                ) -> list[tuple[int, dict[str, float], dict[str, float]]]:  # fmt: skip
+    """The trials both studies ran, checked to be the same draws."""
+    common = sorted(set(a) & set(b))
+    if not common:
+        raise ValueError("the two studies share no trial")
+    for i in common:
+        for key in ("dx0", "dy0", "theta_x0", "theta_y0", "friction", "peg_radius"):
+            if a[i][key] != b[i][key]:
+                raise ValueError(f"trial {i} differs in {key} ({a[i][key]} vs {b[i][key]}): "
+                                 "not the same scenario, seed and draws")  # fmt: skip
+    return [(i, a[i], b[i]) for i in common]
+
+
+def markdown(pairs: list[tuple[int, dict[str, float], dict[str, float]]],
+             names: tuple[str, str]) -> str:  # fmt: skip
+    """The trial-by-trial table and the table against friction."""
+    ok = np.array([[p[1]["success"], p[2]["success"]] for p in pairs], dtype=bool)
+    n = len(pairs)
+    first, second = names
+    lines = [f"| {n} trials | {second} assembled | {second} not |", "|---|---|---|",
+             f"| {first} assembled | {int((ok[:, 0] & ok[:, 1]).sum())} | "
+             f"{int((ok[:, 0] & ~ok[:, 1]).sum())} |",
+             f"| {first} not | {int((~ok[:, 0] & ok[:, 1]).sum())} | "
+             f"{int((~ok[:, 0] & ~ok[:, 1]).sum())} |", "",
+             f"| μ | trials | {first} assembled | {second} assembled | {first} peak Fz median "
+             f"| {second} peak Fz median |", "|---|---|---|---|---|---|"]  # fmt: skip
+    mu = np.array([p[1]["friction"] for p in pairs])
+    peak = np.array([[p[1]["peak_fz"], p[2]["peak_fz"]] for p in pairs])
+    for lo, hi in itertools.pairwise(FRICTION_EDGES):
+        inside = (mu >= lo) & (mu < hi if hi < FRICTION_EDGES[-1] else mu <= hi)
+        k = int(inside.sum())
+        if not k:
+            continue
+        a, b = ok[inside].mean(axis=0)
+        pa, pb = np.median(peak[inside], axis=0)
+        lines.append(f"| {lo:.1f}-{hi:.1f} | {k} | {a:.1%} | {b:.1%} | {pa:.1f} N | {pb:.1f} N |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m fbcc_ros.studies.plants_trial_by_trial",
+                                     description=__doc__.splitlines()[0])  # fmt: skip
+    parser.add_argument("first", type=Path, metavar="A/trials.csv")
+    parser.add_argument("second", type=Path, metavar="B/trials.csv")
+    parser.add_argument("--law", default="fbcc", help="the law's rows (fbcc)")
+    parser.add_argument("--names", nargs=2, default=("model", "MuJoCo"),
+                        metavar=("A", "B"), help="the plants' names in the tables")  # fmt: skip
+    args = parser.parse_args(argv)
+    for path in (args.first, args.second):
+        if not path.is_file():
+            parser.error(f"{path}: no such file (a study's trials.csv)")
+    try:
+        pairs = pair_trials(read_trials(args.first, args.law), read_trials(args.second, args.law))
+    except ValueError as exc:
+        parser.error(str(exc))
+    print(markdown(pairs, tuple(args.names)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
