@@ -376,8 +376,10 @@ def main(argv: list[str] | None = None) -> int:
                   f"|error| median {mu['abs_error_median']:.3f}, p95 "
                   f"{mu['abs_error_p95']:.3f}")  # fmt: skip
         for f in s["failures"][:10]:
+            # eq. 8's k is the model's; MuJoCo's contact has its own stiffness
+            k = f"k {f['stiffness']:.3g} Pa, " if sc.plant.type == "model" else ""
             print(f"    failed trial {f['trial']} (--seed {f['seed']} --trial {f['trial']}): "
-              f"{f['why']}; k {f['stiffness']:.3g} Pa, mu {f['friction']:.2f}")  # fmt: skip
+                  f"{f['why']}; {k}mu {f['friction']:.2f}")  # fmt: skip
     if trials.redrawn:
         print(f"{trials.redrawn} part(s) drawn again: push-in force above {feasible:.0f} N")
     where = f"the cluster at {args.scheduler}" if args.scheduler else f"{args.workers} worker(s)"
