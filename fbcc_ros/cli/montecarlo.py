@@ -140,7 +140,8 @@ def write_trials(trials: Trials, results: dict[str, Outcome], path: Path) -> Non
         for law, o in results.items():
             for i in range(len(trials)):
                 d, g = trials.initial[i], trials.geometries[i]
-                w.writerow([law, i, *(f"{v:.6g}" for v in (d[0], d[1], d[3], d[4])),
+                w.writerow([law, trials.numbers[i],
+                            *(f"{v:.6g}" for v in (d[0], d[1], d[3], d[4])),
                             f"{g.hole_radius:.7g}", f"{g.peg_radius:.7g}",
                             f"{g.stiffness:.4g}", f"{g.friction:.4g}", int(o.success[i]),
                             f"{o.insertion_time[i]:.4g}", f"{o.peak_fz[i]:.4g}",
@@ -268,6 +269,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("scenario", type=Path, metavar="SCENARIO.yaml")
     parser.add_argument("--out", required=True, help="output folder (created if missing)")
     parser.add_argument("--trials", type=int, default=1000, help="number of trials (1000)")
+    parser.add_argument("--first", type=int, default=0,
+                        help="the number of the first trial (0): a long study split in parts "
+                        "(--first 0 --trials 300, then --first 300 ...) runs the same trials")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1,
                         help="local processes (default: every core)")  # fmt: skip
     parser.add_argument("--scheduler", metavar="ADDRESS",
@@ -296,6 +300,8 @@ def main(argv: list[str] | None = None) -> int:
     for flag, value in (("--trials", args.trials), ("--workers", args.workers)):
         if value < 1:
             parser.error(f"{flag}={value} is not allowed: expected an integer >= 1")
+    if args.first < 0:
+        parser.error(f"--first={args.first} is not allowed: expected a trial number >= 0")
     if args.trials > MAX_TRIALS:
         parser.error(f"--trials={args.trials} is not allowed: expected at most {MAX_TRIALS} "
                      "(run several seeds for more)")
@@ -324,7 +330,8 @@ def main(argv: list[str] | None = None) -> int:
         math.radians(args.max_tilt_deg),
         stiffness=None if stiffness_gpa is None else (stiffness_gpa[0] * 1e9,
                                                       stiffness_gpa[1] * 1e9),
-        friction=friction, feasible_force=feasible, numbers=args.trial,
+        friction=friction, feasible_force=feasible,
+        numbers=args.trial or range(args.first, args.first + args.trials),
     )  # fmt: skip
     if args.trial:
         return replay(sc, laws, trials, out)
@@ -345,7 +352,8 @@ def main(argv: list[str] | None = None) -> int:
         summary[law]["failures"] = failures(o, trials, missed[law])
         summary[law]["friction_estimate"] = friction_accuracy(o, trials)
     summary["_run"] = {
-        "scenario": str(args.scenario), "trials": args.trials, "seed": args.seed,
+        "scenario": str(args.scenario), "trials": args.trials, "first": args.first,
+        "seed": args.seed,
         "workers": args.workers, "scheduler": args.scheduler, "seconds": elapsed,
         "max_offset_mm": args.max_offset_mm,
         "max_tilt_deg": args.max_tilt_deg, "stiffness_gpa": stiffness_gpa,

@@ -216,6 +216,13 @@ def test_montecarlo_replays_a_trial_of_a_study(
     assert montecarlo.main([*study, "--out", str(tmp_path / "study")]) == 0
     with (tmp_path / "study" / "trials.csv").open() as f:
         row = list(csv.DictReader(f))[3]
+    # the study's trials 3 and 4 are those of a study that starts at trial 3
+    assert montecarlo.main([*study[:2], "2", *study[3:], "--first", "3", "--out",
+                            str(tmp_path / "part")]) == 0  # fmt: skip
+    with (tmp_path / "part" / "trials.csv").open() as f:
+        part = list(csv.DictReader(f))
+    with (tmp_path / "study" / "trials.csv").open() as f:
+        assert [dict(r) for r in list(csv.DictReader(f))[3:5]] == [dict(r) for r in part]
     bigger = [*study[:2], "40", *study[3:]]
     assert montecarlo.main([*bigger, "--out", str(tmp_path / "again"), "--trial", "3"]) == 0
     folder = tmp_path / "again" / "trial_3"
