@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from fbcc_ros.cli.bench_contact import STATE_BUDGET_US, bench_contact_state, paper_assembly
-from fbcc_ros.cli.bench_plant import PLANT_REALTIME_TARGET, bench_plants
+from fbcc_ros.cli.bench_plant import report_plants
 from fbcc_ros.core.compensation.compensator import Compensator, SensorSetup
 from fbcc_ros.core.compensation.payload import Payload
 from fbcc_ros.core.errors import FbccError, command
@@ -343,10 +343,7 @@ def main(argv: list[str] | None = None) -> int:
     rt = bench_assembly("interference", 1 if args.short else 5)
     _line("one assembly at 1 kHz [x real time]", f"{rt:.1f}", f">= {REALTIME_TARGET:.0f}",
           rt / REALTIME_TARGET)  # fmt: skip
-    plants = bench_plants(0.0005 if args.short else 0.003)
-    _line("one trial on MuJoCo [x real time]", f"{plants['mujoco']:.2f}",
-          f">= {PLANT_REALTIME_TARGET:.0f}", plants["mujoco"] / PLANT_REALTIME_TARGET)  # fmt: skip
-    print(f"{'  the same trial on the model [x real time]':46s} {plants['model']:12.1f}")
+    report_plants(args.short, _line)
     assembly = paper_assembly()
     for robot in ("iiwa14",) if args.short else ("iiwa14", "panda", "ur5"):
         features_us, ik_us, ik_p99 = bench_kinematics(*assembly, robot,
