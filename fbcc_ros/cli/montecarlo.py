@@ -300,6 +300,8 @@ def main(argv: list[str] | None = None) -> int:
     for flag, value in (("--trials", args.trials), ("--workers", args.workers)):
         if value < 1:
             parser.error(f"{flag}={value} is not allowed: expected an integer >= 1")
+    if args.first and args.trial:
+        parser.error("--first and --trial: give one (--trial names the trials to replay)")
     if args.first < 0:
         parser.error(f"--first={args.first} is not allowed: expected a trial number >= 0")
     if args.trials > MAX_TRIALS:

@@ -1,5 +1,6 @@
-"""Two Monte Carlo studies of the same trials on two plants, trial by trial: which trials each
-assembled, and success and peak Fz against the drawn friction.
+"""Two Monte Carlo studies of the same trials on two plants, trial by trial: which trials
+succeeded on each (assembled within the force limit), and success and peak Fz against the
+drawn friction.
 
 A trial is its seed (:mod:`fbcc_ros.core.sim.montecarlo`): ``fbcc-montecarlo`` with the same
 scenario, seed and draws, once with ``--plant model`` and once with ``--plant mujoco``, runs
@@ -19,15 +20,23 @@ from pathlib import Path
 
 import numpy as np
 
-#: The friction bins of the tables (their edges).
-FRICTION_EDGES = (0.1, 0.2, 0.3, 0.4, 0.5)
+#: The columns a trial's draw fills: two studies pair only where all of them agree.
+DRAWN = ("dx0", "dy0", "theta_x0", "theta_y0", "hole_radius", "peg_radius", "stiffness",
+         "friction")
+#: The friction bins of the second table.
+BINS = 4
 
 
 def read_trials(path: Path, law: str) -> dict[int, dict[str, float]]:
     """The rows of ``law`` in a study's ``trials.csv``, by trial number."""
     with path.open(newline="") as f:
-        return {int(r["trial"]): {k: float(v) for k, v in r.items() if k not in ("law", "trial")}
-                for r in csv.DictReader(f) if r["law"] == law}  # fmt: skip
+        rows = list(csv.DictReader(f))
+    mine = {int(r["trial"]): {k: float(v) for k, v in r.items() if k not in ("law", "trial")}
+            for r in rows if r["law"] == law}  # fmt: skip
+    if not mine:
+        raise ValueError(f"{path} has no trial of the law {law!r} (it has "
+                         f"{sorted({r['law'] for r in rows})})")  # fmt: skip
+    return mine
 
 
 def pair_trials(a: dict[int, dict[str, float]], b: dict[int, dict[str, float]]
@@ -37,7 +46,7 @@ def pair_trials(a: dict[int, dict[str, float]], b: dict[int, dict[str, float]]
     if not common:
         raise ValueError("the two studies share no trial")
     for i in common:
-        for key in ("dx0", "dy0", "theta_x0", "theta_y0", "friction", "peg_radius"):
+        for key in DRAWN:
             if a[i][key] != b[i][key]:
                 raise ValueError(f"trial {i} differs in {key} ({a[i][key]} vs {b[i][key]}): "
                                  "not the same scenario, seed and draws")  # fmt: skip
@@ -46,27 +55,29 @@ def pair_trials(a: dict[int, dict[str, float]], b: dict[int, dict[str, float]]
 
 def markdown(pairs: list[tuple[int, dict[str, float], dict[str, float]]],
              names: tuple[str, str]) -> str:  # fmt: skip
-    """The trial-by-trial table and the table against friction."""
+    """The trial-by-trial table and the table against friction (its range in :data:`BINS`
+    bins). A success is the study's: assembled, and within the force limit."""
     ok = np.array([[p[1]["success"], p[2]["success"]] for p in pairs], dtype=bool)
     n = len(pairs)
     first, second = names
-    lines = [f"| {n} trials | {second} assembled | {second} not |", "|---|---|---|",
-             f"| {first} assembled | {int((ok[:, 0] & ok[:, 1]).sum())} | "
+    lines = [f"| {n} trials | {second} succeeded | {second} not |", "|---|---|---|",
+             f"| {first} succeeded | {int((ok[:, 0] & ok[:, 1]).sum())} | "
              f"{int((ok[:, 0] & ~ok[:, 1]).sum())} |",
              f"| {first} not | {int((~ok[:, 0] & ok[:, 1]).sum())} | "
              f"{int((~ok[:, 0] & ~ok[:, 1]).sum())} |", "",
-             f"| μ | trials | {first} assembled | {second} assembled | {first} peak Fz median "
+             f"| μ | trials | {first} succeeded | {second} succeeded | {first} peak Fz median "
              f"| {second} peak Fz median |", "|---|---|---|---|---|---|"]  # fmt: skip
     mu = np.array([p[1]["friction"] for p in pairs])
     peak = np.array([[p[1]["peak_fz"], p[2]["peak_fz"]] for p in pairs])
-    for lo, hi in itertools.pairwise(FRICTION_EDGES):
-        inside = (mu >= lo) & (mu < hi if hi < FRICTION_EDGES[-1] else mu <= hi)
+    edges = np.linspace(mu.min(), mu.max(), BINS + 1)
+    for lo, hi in itertools.pairwise(edges):
+        inside = (mu >= lo) & ((mu < hi) | (hi == edges[-1]))
         k = int(inside.sum())
         if not k:
             continue
         a, b = ok[inside].mean(axis=0)
         pa, pb = np.median(peak[inside], axis=0)
-        lines.append(f"| {lo:.1f}-{hi:.1f} | {k} | {a:.1%} | {b:.1%} | {pa:.1f} N | {pb:.1f} N |")
+        lines.append(f"| {lo:.2f}-{hi:.2f} | {k} | {a:.1%} | {b:.1%} | {pa:.1f} N | {pb:.1f} N |")
     return "\n".join(lines)
 
 

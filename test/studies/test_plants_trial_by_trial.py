@@ -32,8 +32,8 @@ def test_the_same_trials_on_both_plants_are_paired(tmp_path: Path,
     capsys.readouterr()
     assert main([str(model), str(mujoco)]) == 0
     out = capsys.readouterr().out
-    assert "| 4 trials | MuJoCo assembled | MuJoCo not |" in out
-    rows = [line for line in out.splitlines() if line.startswith(("| model assembled",
+    assert "| 4 trials | MuJoCo succeeded | MuJoCo not |" in out
+    rows = [line for line in out.splitlines() if line.startswith(("| model succeeded",
                                                                  "| model not"))]  # fmt: skip
     counts = [int(c) for row in rows for c in row.strip("|").split("|")[1:]]
     assert sum(counts) == 4
@@ -41,3 +41,6 @@ def test_the_same_trials_on_both_plants_are_paired(tmp_path: Path,
     with pytest.raises(SystemExit) as exc:
         main([str(model), str(other)])
     assert exc.value.code == 2 and "trial 0 differs" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        main([str(model), str(mujoco), "--law", "admittance"])
+    assert exc.value.code == 2 and "no trial of the law 'admittance'" in capsys.readouterr().err

@@ -15,8 +15,9 @@ This is the plant of :mod:`fbcc_ros.core.sim.simulation` in joint space, for the
     (:mod:`fbcc_ros.core.sim.plants`);
   - ``mujoco``: the LBR in MuJoCo carries the peg in its grip over MuJoCo's hole, one model
     (:mod:`fbcc_ros.core.sim.plants.mujoco_cell`): the joints are where its servos get under
-    the contact's load (the scenario's lag does not apply), and the external joint torques
-    are MuJoCo's;
+    the contact's load (the scenario's lag and the velocity clip do not apply: the servos
+    follow any command within the URDF's limits, which MuJoCo enforces), and the external
+    joint torques are MuJoCo's;
 
   a command reaches the arm the scenario's ``robot.delay`` after it was given;
 * **the sensor** sits under the true hole at its acting point, axes as the hole's, and carries a
@@ -173,20 +174,22 @@ class MockCell:
 
     def step(self, dt: float) -> CellSample:
         """Advance the arm by dt [s] toward its command and read the sensor."""
-        alpha = self._alpha.get(dt)
-        if alpha is None:
-            lag = self.sc.lag
-            alpha = self._alpha[dt] = 1.0 - math.exp(-dt / lag) if lag > 0 else 1.0
         # the latest command given at least robot.delay ago reaches the arm
         while self._late and self._late[0][0] <= self.t - self.sc.delay + 1e-9:
             self.q_cmd = self._late.popleft()[1]
         self.t += dt
         q_prev = self.q
         if self.mujoco is not None:
+            if abs(dt - self.mujoco.dt) > 1e-9 * dt:
+                raise InputError("dt", dt, f"the MuJoCo cell's period, {self.mujoco.dt:g} s")
             self.mujoco.command(self.q_cmd)
             self.q, x, response = self.mujoco.step()
         else:
             assert self.contact is not None
+            alpha = self._alpha.get(dt)
+            if alpha is None:
+                lag = self.sc.lag
+                alpha = self._alpha[dt] = 1.0 - math.exp(-dt / lag) if lag > 0 else 1.0
             # q += (1 - exp(-dt/tau)) (q_cmd - q), within the velocity and position limits
             reach = self.robot.velocity_limit * dt
             step = (alpha * (self.q_cmd - q_prev)).clip(-reach, reach)

@@ -15,7 +15,8 @@ A part whose quasi-static push-in force (:meth:`PegHole.push_in_force` at L) exc
 :attr:`Trials.redrawn`, so that the study measures the controller, not the impossible.
 
 **A trial is its seed.** Trial i of a study with seed s draws from its own generator,
-``SeedSequence([s, i])``, and its sensor noise from ``SeedSequence([scenario.seed, s, i])``: its
+``SeedSequence([s, i])``, and its sensor noise from ``SeedSequence([scenario.seed, s, i])``
+under a spawn key of its own (:data:`NOISE_KEY`), a stream apart from every draw's: its
 outcome depends on (scenario, s, i) only, not on how many trials the study has, in which batch
 or on which worker it ran, so ``--seed s --trial i`` replays it alone. Every law sees the same
 trials. The trials are split in batches that run in lockstep (:func:`simulation.simulate`) on a
@@ -26,7 +27,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import operator
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -40,6 +43,8 @@ from fbcc_ros.core.sim.simulation import Outcome, SimResult, simulate, state_seq
 
 DEFAULT_MAX_OFFSET = 1e-4  # [m]
 DEFAULT_MAX_TILT = math.radians(2.0)  # [rad]
+#: The spawn key of the noise streams (the draws' is empty).
+NOISE_KEY = (1,)
 #: Trials per lockstep batch (and per task of the pool), per plant: the model's batch is
 #: vectorised; MuJoCo steps its trials in turn, so one trial per task keeps every core busy.
 BATCH = {"model": 128, "mujoco": 1}
@@ -63,9 +68,12 @@ class Trials:
     def part(self, s: slice) -> Trials:
         return Trials(self.initial[s], self.geometries[s], self.seed, self.numbers[s])
 
-    def noise_seeds(self, scenario_seed: int) -> list[list[int]]:
-        """Each trial's noise seed (module doc)."""
-        return [[scenario_seed, self.seed, i] for i in self.numbers]
+    def noise_seeds(self, scenario_seed: int) -> list[np.random.SeedSequence]:
+        """Each trial's noise seed (module doc), a stream apart from every draw's: its spawn
+        key (NumPy pads a short entropy with zeros, so ``[a, s, 0]`` alone would be the draw
+        stream ``[a, s]``)."""
+        return [np.random.SeedSequence([scenario_seed, self.seed, i], spawn_key=NOISE_KEY)
+                for i in self.numbers]  # fmt: skip
 
 
 def draw_trials(
@@ -97,9 +105,9 @@ def draw_trials(
         numbers = range(n)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ConfigError("seed", seed, "an integer >= 0")
-    for i in numbers:
-        if isinstance(i, bool) or not isinstance(i, int) or i < 0:
-            raise ConfigError("trial", i, "an integer >= 0")
+    numbers = [_trial_number(i) for i in numbers]
+    if not numbers or len(set(numbers)) != len(numbers):
+        raise ConfigError("trials", numbers[:10], "one or more distinct trial numbers")
     for name, bounds, low in (("stiffness", stiffness, 0.0), ("friction", friction, 0.0)):
         if bounds is not None and not (low < bounds[0] <= bounds[1]):
             raise ConfigError(name, list(bounds), f"(low, high) with {low:g} < low <= high")
@@ -108,6 +116,7 @@ def draw_trials(
     redrawn = 0
     for row, i in enumerate(numbers):
         rng = np.random.default_rng([seed, i])  # the trial's own draw (module doc)
+        tries = 0
         initial[row, :2] = rng.uniform(-max_offset, max_offset, 2)
         initial[row, 3:] = rng.uniform(-max_tilt, max_tilt, 2)
         while True:
@@ -119,15 +128,25 @@ def draw_trials(
                 g = g.replace(friction=float(rng.uniform(*friction)))
             if feasible_force is None or g.push_in_force() <= feasible_force:
                 break
-            redrawn += 1
-            if redrawn > 100 * len(numbers):
+            redrawn, tries = redrawn + 1, tries + 1
+            if tries > 100:  # per trial: a trial drawn alone is refused only as in its study
                 raise ConfigError(
                     "feasible_force", feasible_force,
-                    "a force most drawn parts can be pushed in with (100 draws per trial "
+                    f"a force most drawn parts can be pushed in with (trial {i}: 100 draws "
                     "were all too tight: is the fit an interference too stiff to insert?)",
                 )  # fmt: skip
         geometries.append(g)
     return Trials(initial, tuple(geometries), seed, tuple(numbers), redrawn)
+
+
+def _trial_number(value: Any) -> int:
+    try:
+        number = operator.index(value)  # an int, a NumPy integer; not a float, not a bool
+    except TypeError:
+        number = -1
+    if isinstance(value, bool) or number < 0:
+        raise ConfigError("trial", value, "an integer >= 0")
+    return number
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:

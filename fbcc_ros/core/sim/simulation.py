@@ -232,7 +232,7 @@ def simulate(
     limits: SafetyLimits | None = None,
     wrap: Callable[[Law], Any] | None = None,
     make_plant: MakePlant | None = None,
-    noise_seeds: Sequence[Sequence[int]] | None = None,
+    noise_seeds: Sequence[np.random.SeedSequence] | None = None,
 ) -> tuple[Outcome, Trajectory | None]:
     """Run N trials of the closed loop in lockstep.
 
@@ -248,7 +248,7 @@ def simulate(
             ``stopped``, ``trips``), e.g. :class:`~fbcc_ros.core.control.state_gate.StateGatedLaw`.
         make_plant: Builds the plant from ``(scenario, robot, deviations, true pairs)``
             (:mod:`fbcc_ros.core.sim.plants`); default :func:`scenario_plant`.
-        noise_seeds: Each trial's noise seed (N of them, each a list of integers) instead of
+        noise_seeds: Each trial's noise seed (N of them) instead of
             ``seed``: its noise then does not depend on the batch around it (a Monte Carlo
             trial's, :mod:`fbcc_ros.core.sim.montecarlo`).
     """
@@ -260,7 +260,7 @@ def simulate(
     if noise_seeds is not None and len(noise_seeds) != n:
         raise ConfigError("noise_seeds", f"{len(noise_seeds)} seeds", f"{n}, one per trial")
     rng = np.random.default_rng(sc.seed if seed is None else seed)
-    rngs = None if noise_seeds is None else [np.random.default_rng(list(s)) for s in noise_seeds]
+    rngs = None if noise_seeds is None else [np.random.default_rng(s) for s in noise_seeds]
     law = make_law(law_name, sc.geometry, sc.params, sc.insertion)
     if wrap is not None:
         law = wrap(law)

@@ -164,8 +164,15 @@ def test_a_trial_is_its_seed_whatever_the_study_around_it() -> None:
     b = run_montecarlo(sc, ["fbcc"], large, workers=1, batch=3)["fbcc"]
     np.testing.assert_array_equal(a.final_features[5], b.final_features[5])
     assert a.peak_fz[5] == b.peak_fz[5]
-    with pytest.raises(ConfigError, match="trial"):
-        draw_trials(sc.geometry, 1, seed=3, numbers=[-1])
+    # the noise is a stream apart from every draw: trial 0's of seed 0 in a scenario of
+    # seed 0 ([0, 0, 0], which NumPy pads like [0, 0]) is not trial 0's draw
+    zero = draw_trials(sc.geometry, 1, seed=0)
+    noise = np.random.default_rng(zero.noise_seeds(0)[0]).standard_normal(4)
+    assert not np.array_equal(noise, np.random.default_rng([0, 0]).standard_normal(4))
+    assert draw_trials(sc.geometry, 1, seed=3, numbers=[np.int64(5)]).numbers == (5,)
+    for bad in ([-1], [2, 2], [], [1.0]):
+        with pytest.raises(ConfigError, match="trial"):
+            draw_trials(sc.geometry, 1, seed=3, numbers=bad)
     with pytest.raises(ConfigError, match="seed"):
         draw_trials(sc.geometry, 1, seed=-3)
 

@@ -98,6 +98,7 @@ class MujocoCell:
                  dt: float) -> None:  # fmt: skip
         model = cell_model(robot, hole_in_base, pair, holder, part, contact)
         self.scene = MujocoPegHole(pair, holder, part, contact, model=model)
+        self.dt = dt
         self.substeps = round(dt / self.scene.dt)
         if self.substeps < 1 or abs(self.substeps * self.scene.dt - dt) > 1e-9 * dt:
             raise ConfigError("rate_hz", 1.0 / dt, f"a period that is a whole number of "

@@ -273,14 +273,14 @@ class MujocoPegHole:
         self.data = mujoco.MjData(self.model)
         self.dt = float(self.model.opt.timestep)
         self._peg = self.model.body("peg").id
-        #: the grip is carried (by an arm): the peg's pose is not its grip joints' coordinates
-        self.carried = int(self.model.body_parentid[self._peg]) != 0
+        self.carried = int(self.model.body_parentid[self._peg]) != 0  # by an arm: its grip
         self._tip = self.model.site("tip").id
         fixture = self.model.body("fixture").id
         self._hole_geoms = set(np.flatnonzero(self.model.geom_bodyid == fixture).tolist())
         self._force = np.zeros(6)
         self._joints = np.array([self.model.joint(f"grip{i}").id for i in range(6)])
         self._dofs = self.model.jnt_dofadr[self._joints]
+        self._qpos = self.model.jnt_qposadr[self._joints]
         self._servos = np.array([self.model.actuator(f"grip{i}").id for i in range(6)])
         self._impulse, self._steps = np.zeros(self.model.nv), 0
         mujoco.mj_forward(self.model, self.data)
@@ -308,7 +308,7 @@ class MujocoPegHole:
     def place(self, features: FloatArray) -> None:
         """The hand and the peg, at rest, undeflected at ``features`` (a trial's start)."""
         self.set_hand(features)
-        self.data.qpos[self._dofs] = self.data.ctrl[self._servos]
+        self.data.qpos[self._qpos] = self.data.ctrl[self._servos]
         self.data.qvel[:] = 0.0
         mujoco.mj_forward(self.model, self.data)
 
