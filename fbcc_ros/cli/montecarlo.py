@@ -269,9 +269,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("scenario", type=Path, metavar="SCENARIO.yaml")
     parser.add_argument("--out", required=True, help="output folder (created if missing)")
     parser.add_argument("--trials", type=int, default=1000, help="number of trials (1000)")
-    parser.add_argument("--first", type=int, default=0,
-                        help="the number of the first trial (0): a long study split in parts "
-                        "(--first 0 --trials 300, then --first 300 ...) runs the same trials")
+    parser.add_argument("--first", type=int, default=0, help="the first trial's number (0): a "
+                        "study run in parts (--first 300 ...) runs the same trials")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1,
                         help="local processes (default: every core)")  # fmt: skip
     parser.add_argument("--scheduler", metavar="ADDRESS",
@@ -300,10 +299,9 @@ def main(argv: list[str] | None = None) -> int:
     for flag, value in (("--trials", args.trials), ("--workers", args.workers)):
         if value < 1:
             parser.error(f"{flag}={value} is not allowed: expected an integer >= 1")
-    if args.first and args.trial:
-        parser.error("--first and --trial: give one (--trial names the trials to replay)")
-    if args.first < 0:
-        parser.error(f"--first={args.first} is not allowed: expected a trial number >= 0")
+    if args.first < 0 or (args.first and args.trial):
+        parser.error(f"--first={args.first} is not allowed: expected a trial number >= 0, "
+                     "and not with --trial (which names the trials to replay)")
     if args.trials > MAX_TRIALS:
         parser.error(f"--trials={args.trials} is not allowed: expected at most {MAX_TRIALS} "
                      "(run several seeds for more)")
