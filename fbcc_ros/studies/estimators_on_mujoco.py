@@ -13,7 +13,6 @@ docs/plant.md.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import sys
 from typing import Any
@@ -21,6 +20,7 @@ from typing import Any
 from fbcc_ros.core.control.contact_state import ContactStateEstimator
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.state_study import trajectory_study
+from fbcc_ros.studies.arguments import insertion_study_parser, parse
 
 SCENARIO = "config/scenarios/robust_clearance.yaml"
 #: The chamfer of MuJoCo's hole [m]: without one the law does not find the hole (docs/plant.md).
@@ -55,15 +55,7 @@ def markdown(results: dict[str, dict[str, Any]]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m fbcc_ros.studies.estimators_on_mujoco",
-                                     description=__doc__.splitlines()[0])  # fmt: skip
-    parser.add_argument("--trials", type=int, default=24, help="insertions per plant (24)")
-    parser.add_argument("--seed", type=int, default=0, help="of the parts and deviations (0)")
-    args = parser.parse_args(argv)
-    if args.trials < 1:
-        parser.error(f"--trials {args.trials}: expected an integer >= 1")
-    if args.seed < 0:
-        parser.error(f"--seed {args.seed}: expected an integer >= 0")
+    args = parse(insertion_study_parser("estimators_on_mujoco", __doc__, 24), argv)
     print(markdown(estimators_on_plants(args.trials, args.seed)))
     return 0
 

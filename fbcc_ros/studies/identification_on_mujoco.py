@@ -27,7 +27,6 @@ of docs/plant.md.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import sys
 from collections.abc import Callable, Sequence
@@ -53,6 +52,7 @@ from fbcc_ros.core.sim.plants.plant import Contact, LaggingRobot, Plant
 from fbcc_ros.core.sim.scenario import Scenario
 from fbcc_ros.core.sim.simulation import scenario_contact, simulate
 from fbcc_ros.core.sim.state_study import drawn_insertions
+from fbcc_ros.studies.arguments import insertion_study_parser, parse
 
 SCENARIO = "config/scenarios/robust_clearance.yaml"
 #: The chamfer of MuJoCo's hole [m]: without one the law does not find the hole (docs/plant.md).
@@ -306,19 +306,12 @@ def markdown(results: dict[str, dict[str, Any]]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m fbcc_ros.studies.identification_on_mujoco",
-                                     description=__doc__.splitlines()[0])  # fmt: skip
-    parser.add_argument("--trials", type=int, default=8, help="insertions per plant (8)")
-    parser.add_argument("--seed", type=int, default=0, help="of the parts and deviations (0)")
+    parser = insertion_study_parser("identification_on_mujoco", __doc__, 8)
     parser.add_argument("--duration", type=float, default=DURATION,
                         help=f"of each insertion [s] ({DURATION:g})")  # fmt: skip
     parser.add_argument("--noisy-only", action="store_true",
                         help="only the runs with the scenario's sensor noise (half the time)")
-    args = parser.parse_args(argv)
-    if args.trials < 1:
-        parser.error(f"--trials {args.trials}: expected an integer >= 1")
-    if args.seed < 0:
-        parser.error(f"--seed {args.seed}: expected an integer >= 0")
+    args = parse(parser, argv)
     if not args.duration > 0.1:
         parser.error(f"--duration {args.duration}: expected more than 0.1 s")
     noise = (True,) if args.noisy_only else (True, False)
