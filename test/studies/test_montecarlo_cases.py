@@ -1,0 +1,66 @@
+"""Monte Carlo cases side by side, a case run in parts joined by trial number."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from fbcc_ros.cli import montecarlo
+from fbcc_ros.studies.montecarlo_cases import main
+from fbcc_ros.studies.plants_trial_by_trial import BINS
+
+SHORT = ("geometry: {hole_radius: 0.00505, peg_radius: 0.00504, hole_depth: 0.01,"
+         " base_thickness: 0.005, friction: 0.3, stiffness: 1.84e+8}\n"
+         "initial: {dx: 1.0e-4, dy: 0, theta_x: 0.03, theta_y: 0}\n"
+         "insertion: {depth: 0.002, speed: 0.005}\nduration: 0.5\n")  # fmt: skip
+
+
+def _study(tmp_path: Path, name: str, *args: str) -> Path:
+    scenario = tmp_path / "short.yaml"
+    scenario.write_text(SHORT)
+    out = tmp_path / name
+    assert montecarlo.main([str(scenario), "--out", str(out), "--workers", "1", "--friction",
+                            "0.1", "0.5", "--stiffness-gpa", "0.1", "100", *args]) == 0
+    return out
+
+
+def _table(capsys: pytest.CaptureFixture[str], *args: str) -> str:
+    capsys.readouterr()
+    assert main(list(args)) == 0
+    return capsys.readouterr().out
+
+
+def test_a_case_in_parts_reads_as_the_whole_study(tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    whole = _study(tmp_path, "whole", "--trials", "8")
+    first = _study(tmp_path, "first", "--trials", "5")
+    rest = _study(tmp_path, "rest", "--trials", "3", "--first", "5")
+    joined = _table(capsys, "--case", "c", str(first / "trials.csv"), str(rest / "trials.csv"),
+                    "--figure", str(tmp_path / "cases.png"))
+    assert joined.replace(f"wrote {tmp_path / 'cases.png'}\n", "") == _table(
+        capsys, "--case", "c", str(whole / "trials.csv"))
+    assert (tmp_path / "cases.png").stat().st_size > 0
+    summary = json.loads((whole / "summary.json").read_text())["fbcc"]
+    row = next(line for line in joined.splitlines() if line.startswith("| c | 8 |"))
+    assert row.split("|")[3].strip().startswith(f"{summary['successes'] / 8:.1%}")
+    bins = [line.split("|")[2].split()[0] for line in joined.splitlines()
+            if line.startswith("| 0.")]  # the friction table's rows
+    assert len(bins) == BINS
+    assert sum(int(b.split("/")[1]) for b in bins) == 8  # every trial in one friction bin
+    assert sum(int(b.split("/")[0]) for b in bins) == summary["successes"]
+
+
+def test_parts_of_other_studies_and_bad_cases_are_refused(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
+    one = _study(tmp_path, "one", "--trials", "2") / "trials.csv"
+    other = _study(tmp_path, "other", "--trials", "2", "--seed", "1") / "trials.csv"
+    for args, message in (
+            (["--case", "c", str(one), str(other)], "trial 0 is in two parts"),
+            (["--case", "c"], "names no trials.csv"),
+            (["--case", "c", str(one), "--case", "c", str(one)], "given twice"),
+            (["--case", "c", str(tmp_path / "none.csv")], "no such file")):  # fmt: skip
+        with pytest.raises(SystemExit) as exc:
+            main(args)
+        assert exc.value.code == 2 and message in capsys.readouterr().err
