@@ -65,9 +65,10 @@ def _percent(k: int, n: int) -> str:
 
 
 def markdown(cases: dict[str, Case]) -> str:
-    """The cases' table and the table of success against friction."""
-    lines = ["| case | trials | succeeded (95 %) | force-limited | not assembled at the end "
-             "| peak Fz median, p95 | insertion time median |",
+    """The cases' table (a trial succeeded, or failed on the force limit, or else was not
+    assembled at the end) and the table of success against friction."""
+    lines = ["| case | trials | succeeded (95 %) | failed: force limit | failed: not assembled at "
+             "the end | peak Fz median, p95 | insertion time median |",
              "|---|---|---|---|---|---|---|"]  # fmt: skip
     for name, case in cases.items():
         rows = list(case.values())
@@ -78,7 +79,7 @@ def markdown(cases: dict[str, Case]) -> str:
         assembled = ~np.isnan(time)
         median_time = f"{np.median(time[ok]):.2f} s" if ok.any() else "-"
         lines.append(f"| {name} | {len(rows)} | {_percent(int(ok.sum()), len(rows))} | "
-                     f"{int(limited.sum())} | {int((~assembled).sum())} | "
+                     f"{int(limited.sum())} | {int((~assembled & ~limited).sum())} | "
                      f"{np.median(peak):.1f}, {np.percentile(peak, 95):.1f} N | {median_time} |")
     edges = friction_edges(cases)
     lines += ["", "| μ | " + " | ".join(cases) + " |", "|---" * (len(cases) + 1) + "|"]
