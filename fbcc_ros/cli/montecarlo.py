@@ -118,8 +118,8 @@ def summarise(outcome: Outcome) -> dict[str, Any]:
     for name, scale, unit in _METRICS:
         v = getattr(outcome, name) * scale
         v = v[np.isfinite(v)]
-        stats = {"median": float(np.median(v)), "p95": float(np.percentile(v, 95)),
-                 "max": float(v.max())} if len(v) else None  # fmt: skip
+        stats = {"median": float(np.median(v)), **{f"p{q}": float(np.percentile(v, q)) for q
+                 in (95, 99)}, "max": float(v.max())} if len(v) else None  # fmt: skip
         out[f"{name} [{unit}]"] = stats
     return out
 

@@ -68,7 +68,7 @@ def markdown(cases: dict[str, Case]) -> str:
     """The cases' table (a trial succeeded, or failed on the force limit, or else was not
     assembled at the end) and the table of success against friction."""
     lines = ["| case | trials | succeeded (95 %) | failed: force limit | failed: not assembled at "
-             "the end | peak Fz median, p95 | insertion time median |",
+             "the end | peak Fz median, p99 | insertion time median |",
              "|---|---|---|---|---|---|---|"]  # fmt: skip
     for name, case in cases.items():
         rows = list(case.values())
@@ -80,7 +80,7 @@ def markdown(cases: dict[str, Case]) -> str:
         median_time = f"{np.median(time[ok]):.2f} s" if ok.any() else "-"
         lines.append(f"| {name} | {len(rows)} | {_percent(int(ok.sum()), len(rows))} | "
                      f"{int(limited.sum())} | {int((~assembled & ~limited).sum())} | "
-                     f"{np.median(peak):.1f}, {np.percentile(peak, 95):.1f} N | {median_time} |")
+                     f"{np.median(peak):.1f}, {np.percentile(peak, 99):.1f} N | {median_time} |")
     edges = friction_edges(cases)
     lines += ["", "| μ | " + " | ".join(cases) + " |", "|---" * (len(cases) + 1) + "|"]
     counts = {name: by_friction(case, edges) for name, case in cases.items()}

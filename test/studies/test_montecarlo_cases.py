@@ -43,7 +43,10 @@ def test_a_case_in_parts_reads_as_the_whole_study(tmp_path: Path,
         capsys, "--case", "c", str(whole / "trials.csv"))
     assert (tmp_path / "cases.png").stat().st_size > 0
     summary = json.loads((whole / "summary.json").read_text())["fbcc"]
+    peak = summary["peak_fz [N]"]  # the tail the studies judge (p99), from the same trials
+    assert peak["p95"] <= peak["p99"] <= peak["max"]
     row = next(line for line in joined.splitlines() if line.startswith("| c | 8 |"))
+    assert row.split("|")[6].strip() == f"{peak['median']:.1f}, {peak['p99']:.1f} N"
     assert row.split("|")[3].strip().startswith(f"{summary['successes'] / 8:.1%}")
     bins = [line.split("|")[2].split()[0] for line in joined.splitlines()
             if line.startswith("| 0.")]  # the friction table's rows
