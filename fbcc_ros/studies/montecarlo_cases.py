@@ -16,45 +16,27 @@ Command::
 from __future__ import annotations
 
 import argparse
-import itertools
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from fbcc_ros.core.sim.montecarlo import wilson_interval
-from fbcc_ros.studies.plants_trial_by_trial import BINS, read_trials
-
-Case = dict[int, dict[str, float]]
+from fbcc_ros.studies.trials_csv import Study, friction_bins, join_parts
 
 
-def join_parts(paths: list[Path], law: str) -> Case:
-    """The trials of one study run in parts, by number."""
-    joined: Case = {}
-    for path in paths:
-        for number, row in read_trials(path, law).items():
-            if number in joined and joined[number] != row:
-                raise ValueError(f"trial {number} is in two parts of the case with different "
-                                 f"rows ({path} and an earlier one): not one study")  # fmt: skip
-            joined[number] = row
-    return joined
+def friction_range(cases: dict[str, Study]) -> tuple[float, float]:
+    """The friction every case drew, lowest and highest: the cases' common bins."""
+    mu = [row["friction"] for case in cases.values() for row in case.values()]
+    return min(mu), max(mu)
 
 
-def friction_edges(cases: dict[str, Case]) -> np.ndarray:
-    """:data:`BINS` bins over the friction every case drew."""
-    mu = np.array([row["friction"] for case in cases.values() for row in case.values()])
-    return np.linspace(mu.min(), mu.max(), BINS + 1)
-
-
-def by_friction(case: Case, edges: np.ndarray) -> list[tuple[int, int]]:
-    """(successes, trials) of each friction bin."""
+def by_friction(case: Study, low: float, high: float) -> list[tuple[int, int]]:
+    """(successes, trials) of each friction bin over [low, high]."""
     mu = np.array([row["friction"] for row in case.values()])
     ok = np.array([bool(row["success"]) for row in case.values()])
-    counts = []
-    for lo, hi in itertools.pairwise(edges):
-        inside = (mu >= lo) & ((mu < hi) | (hi == edges[-1]))
-        counts.append((int(ok[inside].sum()), int(inside.sum())))
-    return counts
+    return [(int(ok[inside].sum()), int(inside.sum()))
+            for _lo, _hi, inside in friction_bins(mu, low, high)]  # fmt: skip
 
 
 def _percent(k: int, n: int) -> str:
@@ -64,7 +46,7 @@ def _percent(k: int, n: int) -> str:
     return f"{k / n:.1%} ({lo:.1%}-{hi:.1%})"
 
 
-def markdown(cases: dict[str, Case]) -> str:
+def markdown(cases: dict[str, Study]) -> str:
     """The cases' table (a trial succeeded, or failed on the force limit, or else was not
     assembled at the end) and the table of success against friction."""
     lines = ["| case | trials | succeeded (95 %) | failed: force limit | failed: not assembled at "
@@ -81,28 +63,29 @@ def markdown(cases: dict[str, Case]) -> str:
         lines.append(f"| {name} | {len(rows)} | {_percent(int(ok.sum()), len(rows))} | "
                      f"{int(limited.sum())} | {int((~assembled & ~limited).sum())} | "
                      f"{np.median(peak):.1f}, {np.percentile(peak, 99):.1f} N | {median_time} |")
-    edges = friction_edges(cases)
+    low, high = friction_range(cases)
     lines += ["", "| μ | " + " | ".join(cases) + " |", "|---" * (len(cases) + 1) + "|"]
-    counts = {name: by_friction(case, edges) for name, case in cases.items()}
-    for b, (lo, hi) in enumerate(itertools.pairwise(edges)):
+    counts = {name: by_friction(case, low, high) for name, case in cases.items()}
+    bins = friction_bins(np.array([]), low, high)
+    for b, (lo, hi, _none) in enumerate(bins):
         cells = [f"{k}/{n}" + (f" ({k / n:.0%})" if n else "") for k, n in
                  (counts[name][b] for name in cases)]  # fmt: skip
         lines.append(f"| {lo:.2f}-{hi:.2f} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
-def draw(cases: dict[str, Case], path: Path) -> None:
+def draw(cases: dict[str, Study], path: Path) -> None:
     """Success against friction, one line per case, with the bins' 95 % intervals."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    edges = friction_edges(cases)
-    centres = 0.5 * (edges[:-1] + edges[1:])
+    low, high = friction_range(cases)
+    centres = [0.5 * (lo + hi) for lo, hi, _none in friction_bins(np.array([]), low, high)]
     fig, ax = plt.subplots(figsize=(6.4, 4.0))
     for j, (name, case) in enumerate(cases.items()):
-        counts = by_friction(case, edges)
+        counts = by_friction(case, low, high)
         shown = [(c, k / n, *wilson_interval(k, n))
                  for c, (k, n) in zip(centres, counts, strict=True) if n]  # fmt: skip
         x, rate, lo, hi = (np.array(v) for v in zip(*shown, strict=True))
@@ -127,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--law", default="fbcc", help="the law's rows (fbcc)")
     parser.add_argument("--figure", type=Path, help="draw success against friction here (PNG)")
     args = parser.parse_args(argv)
-    cases: dict[str, Case] = {}
+    cases: dict[str, Study] = {}
     for name, *paths in args.case:
         if not paths:
             parser.error(f"--case {name!r} names no trials.csv: expected NAME TRIALS_CSV...")

@@ -7,40 +7,25 @@ scenario, seed and draws, once with ``--plant model`` and once with ``--plant mu
 each trial's part, deviation and noise on both plants, so their rows can be paired.
 
 Command: ``python -m fbcc_ros.studies.plants_trial_by_trial MODEL/trials.csv MUJOCO/trials.csv``
-prints the tables of docs/plant.md.
+prints the tables of docs/plant.md (a study run in parts: ``PART1/trials.csv,PART2/trials.csv``).
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
-import itertools
 import sys
 from pathlib import Path
 
 import numpy as np
 
+from fbcc_ros.studies.trials_csv import Study, friction_bins, join_parts
+
 #: The columns a trial's draw fills: two studies pair only where all of them agree.
 DRAWN = ("dx0", "dy0", "theta_x0", "theta_y0", "hole_radius", "peg_radius", "stiffness",
          "friction")
-#: The friction bins of the second table.
-BINS = 4
 
 
-def read_trials(path: Path, law: str) -> dict[int, dict[str, float]]:
-    """The rows of ``law`` in a study's ``trials.csv``, by trial number."""
-    with path.open(newline="") as f:
-        rows = list(csv.DictReader(f))
-    mine = {int(r["trial"]): {k: float(v) for k, v in r.items() if k not in ("law", "trial")}
-            for r in rows if r["law"] == law}  # fmt: skip
-    if not mine:
-        raise ValueError(f"{path} has no trial of the law {law!r} (it has "
-                         f"{sorted({r['law'] for r in rows})})")  # fmt: skip
-    return mine
-
-
-def pair_trials(a: dict[int, dict[str, float]], b: dict[int, dict[str, float]]
-                ) -> list[tuple[int, dict[str, float], dict[str, float]]]:  # fmt: skip
+def pair_trials(a: Study, b: Study) -> list[tuple[int, dict[str, float], dict[str, float]]]:
     """The trials both studies ran, checked to be the same draws."""
     common = sorted(set(a) & set(b))
     if not common:
@@ -55,8 +40,9 @@ def pair_trials(a: dict[int, dict[str, float]], b: dict[int, dict[str, float]]
 
 def markdown(pairs: list[tuple[int, dict[str, float], dict[str, float]]],
              names: tuple[str, str]) -> str:  # fmt: skip
-    """The trial-by-trial table and the table against friction (its range in :data:`BINS`
-    bins). A success is the study's: assembled, and within the force limit."""
+    """The trial-by-trial table and the table against friction (its range in
+    :data:`~.trials_csv.BINS` bins). A success is the study's: assembled, and within the
+    force limit."""
     ok = np.array([[p[1]["success"], p[2]["success"]] for p in pairs], dtype=bool)
     n = len(pairs)
     first, second = names
@@ -69,9 +55,7 @@ def markdown(pairs: list[tuple[int, dict[str, float], dict[str, float]]],
              f"| {second} peak Fz median |", "|---|---|---|---|---|---|"]  # fmt: skip
     mu = np.array([p[1]["friction"] for p in pairs])
     peak = np.array([[p[1]["peak_fz"], p[2]["peak_fz"]] for p in pairs])
-    edges = np.linspace(mu.min(), mu.max(), BINS + 1)
-    for lo, hi in itertools.pairwise(edges):
-        inside = (mu >= lo) & ((mu < hi) | (hi == edges[-1]))
+    for lo, hi, inside in friction_bins(mu, mu.min(), mu.max()):
         k = int(inside.sum())
         if not k:
             continue
@@ -84,17 +68,20 @@ def markdown(pairs: list[tuple[int, dict[str, float], dict[str, float]]],
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m fbcc_ros.studies.plants_trial_by_trial",
                                      description=__doc__.splitlines()[0])  # fmt: skip
-    parser.add_argument("first", type=Path, metavar="A/trials.csv")
-    parser.add_argument("second", type=Path, metavar="B/trials.csv")
+    for name in ("first", "second"):
+        parser.add_argument(name, metavar=f"{name[0].upper()}/trials.csv",
+                            help="a study's trials.csv; a study run in parts: theirs, joined "
+                            "by commas")  # fmt: skip
     parser.add_argument("--law", default="fbcc", help="the law's rows (fbcc)")
     parser.add_argument("--names", nargs=2, default=("model", "MuJoCo"),
                         metavar=("A", "B"), help="the plants' names in the tables")  # fmt: skip
     args = parser.parse_args(argv)
-    for path in (args.first, args.second):
+    studies = [[Path(p) for p in arg.split(",")] for arg in (args.first, args.second)]
+    for path in (p for parts in studies for p in parts):
         if not path.is_file():
             parser.error(f"{path}: no such file (a study's trials.csv)")
     try:
-        pairs = pair_trials(read_trials(args.first, args.law), read_trials(args.second, args.law))
+        pairs = pair_trials(*(join_parts(parts, args.law) for parts in studies))
     except ValueError as exc:
         parser.error(str(exc))
     print(markdown(pairs, tuple(args.names)))

@@ -9,7 +9,7 @@ import pytest
 
 from fbcc_ros.cli import montecarlo
 from fbcc_ros.studies.montecarlo_cases import main
-from fbcc_ros.studies.plants_trial_by_trial import BINS
+from fbcc_ros.studies.trials_csv import BINS
 
 SHORT = ("geometry: {hole_radius: 0.00505, peg_radius: 0.00504, hole_depth: 0.01,"
          " base_thickness: 0.005, friction: 0.3, stiffness: 1.84e+8}\n"

@@ -37,6 +37,8 @@ def test_the_same_trials_on_both_plants_are_paired(tmp_path: Path,
                                                                  "| model not"))]  # fmt: skip
     counts = [int(c) for row in rows for c in row.strip("|").split("|")[1:]]
     assert sum(counts) == 4
+    assert main([str(model), f"{mujoco},{mujoco}"]) == 0  # a study's parts, joined
+    assert capsys.readouterr().out == out
     other = _study(tmp_path, "mujoco", 4)  # another seed: other draws, refused
     with pytest.raises(SystemExit) as exc:
         main([str(model), str(other)])
