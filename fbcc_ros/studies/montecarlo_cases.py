@@ -106,12 +106,13 @@ def main(argv: list[str] | None = None) -> int:
                                      description=__doc__.splitlines()[0])  # fmt: skip
     parser.add_argument("--case", nargs="+", action="append", required=True,
                         metavar=("NAME", "TRIALS_CSV"),
-                        help="a case's name and its study's trials.csv (several: its parts)")
+                        help="a case's name and its study's trials.csv (a study in parts: theirs)")
     parser.add_argument("--law", default="fbcc", help="the law's rows (fbcc)")
     parser.add_argument("--figure", type=Path, help="draw success against friction here (PNG)")
     args = parser.parse_args(argv)
     cases: dict[str, Study] = {}
-    for name, *paths in args.case:
+    for name, *given in args.case:
+        paths = [p for arg in given for p in arg.split(",")]  # parts: apart, or comma-joined
         if not paths:
             parser.error(f"--case {name!r} names no trials.csv: expected NAME TRIALS_CSV...")
         if name in cases:

@@ -42,6 +42,8 @@ def test_a_case_in_parts_reads_as_the_whole_study(tmp_path: Path,
     assert joined.replace(f"wrote {tmp_path / 'cases.png'}\n", "") == _table(
         capsys, "--case", "c", str(whole / "trials.csv"))
     assert (tmp_path / "cases.png").stat().st_size > 0
+    assert _table(capsys, "--case", "c", f"{first / 'trials.csv'},{rest / 'trials.csv'}") == (
+        joined.replace(f"wrote {tmp_path / 'cases.png'}\n", ""))  # comma-joined parts
     summary = json.loads((whole / "summary.json").read_text())["fbcc"]
     peak = summary["peak_fz [N]"]  # the tail the studies judge (p99), from the same trials
     assert peak["p95"] <= peak["p99"] <= peak["max"]
