@@ -1,6 +1,7 @@
 """Monte Carlo studies of several cases side by side: success (assembled within the force
-limit) with its 95 % interval, how the others failed, peak Fz and insertion time, and success
-against the drawn friction, as a table and a figure.
+limit) with its 95 % interval, how the others failed, peak Fz and insertion time; success
+against the drawn friction and against the wedging ratio theta0 / (c/mu) (over 1, a peg in
+two-point contact can wedge), as tables and a figure.
 
 A case is one study's ``trials.csv``, or the parts of one study run with ``--first``
 (``fbcc-montecarlo``): their trials are joined by number, and a trial found in two parts must
@@ -16,27 +17,47 @@ Command::
 from __future__ import annotations
 
 import argparse
+import itertools
+import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from fbcc_ros.core.sim.montecarlo import wilson_interval
-from fbcc_ros.studies.trials_csv import Study, friction_bins, join_parts
+from fbcc_ros.studies.trials_csv import BINS, Study, bin_masks, join_parts
+
+#: The bins of the wedging ratio (:func:`wedging_ratio`): under 1 a two-point contact cannot
+#: wedge, over 1 it can.
+WEDGING_EDGES = np.array([0.0, 0.5, 1.0, 2.0, 4.0, math.inf])
 
 
-def friction_range(cases: dict[str, Study]) -> tuple[float, float]:
-    """The friction every case drew, lowest and highest: the cases' common bins."""
-    mu = [row["friction"] for case in cases.values() for row in case.values()]
-    return min(mu), max(mu)
+def wedging_ratio(row: dict[str, float]) -> float:
+    """A trial's initial tilt theta0 over c / mu, c = (R - r) / R the clearance ratio: a peg in
+    two-point contact can wedge when theta0 > c / mu (Whitney, "Quasi-static assembly of
+    compliantly supported rigid parts", J. Dyn. Sys., Meas., Control 104, 1982); infinite for
+    an interference fit."""
+    c = (row["hole_radius"] - row["peg_radius"]) / row["hole_radius"]
+    tilt = math.atan(math.hypot(math.tan(row["theta_x0"]), math.tan(row["theta_y0"])))
+    return tilt * row["friction"] / c if c > 0 else math.inf
 
 
-def by_friction(case: Study, low: float, high: float) -> list[tuple[int, int]]:
-    """(successes, trials) of each friction bin over [low, high]."""
-    mu = np.array([row["friction"] for row in case.values()])
+def binned(case: Study, value: Callable[[dict[str, float]], float], edges: np.ndarray
+           ) -> list[tuple[int, int]]:  # fmt: skip
+    """(successes, trials) of each bin of ``value`` over the case's trials."""
+    v = np.array([value(row) for row in case.values()])
     ok = np.array([bool(row["success"]) for row in case.values()])
-    return [(int(ok[inside].sum()), int(inside.sum()))
-            for _lo, _hi, inside in friction_bins(mu, low, high)]  # fmt: skip
+    return [(int(ok[inside].sum()), int(inside.sum())) for inside in bin_masks(v, edges)]
+
+
+def binnings(cases: dict[str, Study]) -> list[tuple[str, Callable[[dict[str, float]], float],
+                                                     np.ndarray]]:  # fmt: skip
+    """The tables' and the figure's binnings: (label, value, edges); the friction's over every
+    case's draws."""
+    mu = [row["friction"] for case in cases.values() for row in case.values()]
+    return [("μ", lambda row: row["friction"], np.linspace(min(mu), max(mu), BINS + 1)),
+            ("θ0 / (c/μ)", wedging_ratio, WEDGING_EDGES)]
 
 
 def _percent(k: int, n: int) -> str:
@@ -48,7 +69,8 @@ def _percent(k: int, n: int) -> str:
 
 def markdown(cases: dict[str, Study]) -> str:
     """The cases' table (a trial succeeded, or failed on the force limit, or else was not
-    assembled at the end) and the table of success against friction."""
+    assembled at the end) and the tables of success against friction and against the
+    wedging ratio (:func:`wedging_ratio`)."""
     lines = ["| case | trials | succeeded (95 %) | failed: force limit | failed: not assembled at "
              "the end | peak Fz median, p99 | insertion time median |",
              "|---|---|---|---|---|---|---|"]  # fmt: skip
@@ -63,39 +85,41 @@ def markdown(cases: dict[str, Study]) -> str:
         lines.append(f"| {name} | {len(rows)} | {_percent(int(ok.sum()), len(rows))} | "
                      f"{int(limited.sum())} | {int((~assembled & ~limited).sum())} | "
                      f"{np.median(peak):.1f}, {np.percentile(peak, 99):.1f} N | {median_time} |")
-    low, high = friction_range(cases)
-    lines += ["", "| μ | " + " | ".join(cases) + " |", "|---" * (len(cases) + 1) + "|"]
-    counts = {name: by_friction(case, low, high) for name, case in cases.items()}
-    bins = friction_bins(np.array([]), low, high)
-    for b, (lo, hi, _none) in enumerate(bins):
-        cells = [f"{k}/{n}" + (f" ({k / n:.0%})" if n else "") for k, n in
-                 (counts[name][b] for name in cases)]  # fmt: skip
-        lines.append(f"| {lo:.2f}-{hi:.2f} | " + " | ".join(cells) + " |")
+    for label, value, edges in binnings(cases):
+        lines += ["", f"| {label} | " + " | ".join(cases) + " |", "|---" * (len(cases) + 1) + "|"]
+        counts = [binned(case, value, edges) for case in cases.values()]
+        for b, (lo, hi) in enumerate(itertools.pairwise(edges)):
+            cells = [f"{k}/{n}" + (f" ({k / n:.0%})" if n else "") for k, n in
+                     (c[b] for c in counts)]  # fmt: skip
+            lines.append(f"| {lo:.2f}-{hi:.2f} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
 def draw(cases: dict[str, Study], path: Path) -> None:
-    """Success against friction, one line per case, with the bins' 95 % intervals."""
+    """Success against friction and against the wedging ratio, one line per case, with the
+    bins' 95 % intervals."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    low, high = friction_range(cases)
-    centres = [0.5 * (lo + hi) for lo, hi, _none in friction_bins(np.array([]), low, high)]
-    fig, ax = plt.subplots(figsize=(6.4, 4.0))
-    for j, (name, case) in enumerate(cases.items()):
-        counts = by_friction(case, low, high)
-        shown = [(c, k / n, *wilson_interval(k, n))
-                 for c, (k, n) in zip(centres, counts, strict=True) if n]  # fmt: skip
-        x, rate, lo, hi = (np.array(v) for v in zip(*shown, strict=True))
-        shift = (j - (len(cases) - 1) / 2) * 0.004  # the error bars side by side
-        ax.errorbar(x + shift, 100 * rate, yerr=100 * np.array([rate - lo, hi - rate]),
-                    marker="o", capsize=3, label=f"{name} ({len(case)} trials)")
-    ax.set(xlabel="friction μ (bin centre)", ylabel="succeeded [%] (95 % interval)",
-           ylim=(0, 100))  # fmt: skip
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.0))
+    for ax, (label, value, edges) in zip(axes, binnings(cases), strict=True):
+        finite = np.minimum(edges, 2 * edges[-2])  # an open last bin drawn as one as wide
+        centres = 0.5 * (finite[:-1] + finite[1:])
+        for j, (name, case) in enumerate(cases.items()):
+            shown = [(c, k / n, *wilson_interval(k, n)) for c, (k, n) in
+                     zip(centres, binned(case, value, edges), strict=True) if n]  # fmt: skip
+            x, rate, lo, hi = (np.array(v) for v in zip(*shown, strict=True))
+            shift = (j - (len(cases) - 1) / 2) * 0.01 * (finite[-1] - finite[0])  # side by side
+            bars = np.maximum(0.0, [rate - lo, hi - rate])  # Wilson's bounds, to rounding
+            ax.errorbar(x + shift, 100 * rate, yerr=100 * bars,
+                        marker="o", capsize=3, label=f"{name} ({len(case)} trials)")
+        ax.set(xlabel=f"{label} (bin centre)", ylabel="succeeded [%] (95 % interval)",
+               ylim=(0, 103))  # fmt: skip
+        ax.grid(alpha=0.3)
+    axes[1].axvline(1.0, color="grey", linestyle="--", linewidth=1)  # can wedge to its right
+    axes[0].legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -108,7 +132,8 @@ def main(argv: list[str] | None = None) -> int:
                         metavar=("NAME", "TRIALS_CSV"),
                         help="a case's name and its study's trials.csv (a study in parts: theirs)")
     parser.add_argument("--law", default="fbcc", help="the law's rows (fbcc)")
-    parser.add_argument("--figure", type=Path, help="draw success against friction here (PNG)")
+    parser.add_argument("--figure", type=Path,
+                        help="draw success against friction and the wedging ratio here (PNG)")
     args = parser.parse_args(argv)
     cases: dict[str, Study] = {}
     for name, *given in args.case:

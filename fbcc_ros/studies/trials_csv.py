@@ -48,10 +48,15 @@ def _same(a: dict[str, float], b: dict[str, float]) -> bool:
         a[k] == b[k] or (math.isnan(a[k]) and math.isnan(b[k])) for k in a)
 
 
+def bin_masks(values: np.ndarray, edges: np.ndarray) -> list[np.ndarray]:
+    """Which of ``values`` fall in each bin [edges[i], edges[i + 1]), the last one closed."""
+    return [(values >= lo) & ((values < hi) | (hi == edges[-1]))
+            for lo, hi in itertools.pairwise(edges)]  # fmt: skip
+
+
 def friction_bins(mu: np.ndarray, low: float, high: float
                   ) -> list[tuple[float, float, np.ndarray]]:  # fmt: skip
-    """:data:`BINS` equal bins over [low, high]: each (lo, hi, which of ``mu`` fall in it),
-    the last closed."""
+    """:data:`BINS` equal bins over [low, high]: each (lo, hi, which of ``mu`` fall in it)."""
     edges = np.linspace(low, high, BINS + 1)
-    return [(float(lo), float(hi), (mu >= lo) & ((mu < hi) | (hi == edges[-1])))
-            for lo, hi in itertools.pairwise(edges)]  # fmt: skip
+    return [(float(lo), float(hi), inside) for lo, hi, inside in
+            zip(edges[:-1], edges[1:], bin_masks(mu, edges), strict=True)]  # fmt: skip

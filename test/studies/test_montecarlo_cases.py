@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import pytest
 
 from fbcc_ros.cli import montecarlo
-from fbcc_ros.studies.montecarlo_cases import main
+from fbcc_ros.studies.montecarlo_cases import WEDGING_EDGES, main, wedging_ratio
 from fbcc_ros.studies.trials_csv import BINS
 
 SHORT = ("geometry: {hole_radius: 0.00505, peg_radius: 0.00504, hole_depth: 0.01,"
@@ -50,11 +51,22 @@ def test_a_case_in_parts_reads_as_the_whole_study(tmp_path: Path,
     row = next(line for line in joined.splitlines() if line.startswith("| c | 8 |"))
     assert row.split("|")[6].strip() == f"{peak['median']:.1f}, {peak['p99']:.1f} N"
     assert row.split("|")[3].strip().startswith(f"{summary['successes'] / 8:.1%}")
-    bins = [line.split("|")[2].split()[0] for line in joined.splitlines()
-            if line.startswith("| 0.")]  # the friction table's rows
-    assert len(bins) == BINS
-    assert sum(int(b.split("/")[1]) for b in bins) == 8  # every trial in one friction bin
-    assert sum(int(b.split("/")[0]) for b in bins) == summary["successes"]
+    for label, rows in (("μ", BINS), ("θ0 / (c/μ)", len(WEDGING_EDGES) - 1)):
+        lines = joined.splitlines()
+        top = lines.index(f"| {label} | c |") + 2  # its rows, under the header
+        bins = [line.split("|")[2].split()[0] for line in lines[top : top + rows]]
+        assert sum(int(b.split("/")[1]) for b in bins) == 8  # every trial in one bin
+        assert sum(int(b.split("/")[0]) for b in bins) == summary["successes"]
+
+
+def test_the_wedging_ratio_is_the_tilt_over_c_over_mu() -> None:
+    row = {"hole_radius": 5.05e-3, "peg_radius": 5.04e-3, "theta_x0": 0.0, "theta_y0": -0.02,
+           "friction": 0.3}  # fmt: skip
+    assert wedging_ratio(row) == pytest.approx(0.02 * 0.3 / (0.01 / 5.05))
+    tilted = row | {"theta_x0": 0.02}  # both planes: the total tilt, atan(|(tan, tan)|)
+    total = math.atan(math.tan(0.02) * math.sqrt(2))
+    assert wedging_ratio(tilted) == pytest.approx(total * 0.3 * 505)
+    assert wedging_ratio(row | {"peg_radius": 5.06e-3}) == math.inf  # interference: no c
 
 
 def test_parts_of_other_studies_and_bad_cases_are_refused(
