@@ -72,8 +72,8 @@ def markdown(cases: dict[str, Study]) -> str:
     assembled at the end) and the tables of success against friction and against the
     wedging ratio (:func:`wedging_ratio`)."""
     lines = ["| case | trials | succeeded (95 %) | failed: force limit | failed: not assembled at "
-             "the end | peak Fz median, p99 | insertion time median |",
-             "|---|---|---|---|---|---|---|"]  # fmt: skip
+             "the end | the failed's final depth, median | peak Fz median, p99 | insertion "
+             "time median |", "|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for name, case in cases.items():
         rows = list(case.values())
         ok = np.array([bool(r["success"]) for r in rows])
@@ -82,8 +82,10 @@ def markdown(cases: dict[str, Study]) -> str:
         peak = np.array([r["peak_fz"] for r in rows])
         assembled = ~np.isnan(time)
         median_time = f"{np.median(time[ok]):.2f} s" if ok.any() else "-"
+        depth = np.array([r["final_l"] for r in rows])[~ok] * 1e3
+        stuck = f"{np.median(depth):.2f} mm" if len(depth) else "-"  # on the rim, or wedged
         lines.append(f"| {name} | {len(rows)} | {_percent(int(ok.sum()), len(rows))} | "
-                     f"{int(limited.sum())} | {int((~assembled & ~limited).sum())} | "
+                     f"{int(limited.sum())} | {int((~assembled & ~limited).sum())} | {stuck} | "
                      f"{np.median(peak):.1f}, {np.percentile(peak, 99):.1f} N | {median_time} |")
     for label, value, edges in binnings(cases):
         lines += ["", f"| {label} | " + " | ".join(cases) + " |", "|---" * (len(cases) + 1) + "|"]

@@ -49,7 +49,7 @@ def test_a_case_in_parts_reads_as_the_whole_study(tmp_path: Path,
     peak = summary["peak_fz [N]"]  # the tail the studies judge (p99), from the same trials
     assert peak["p95"] <= peak["p99"] <= peak["max"]
     row = next(line for line in joined.splitlines() if line.startswith("| c | 8 |"))
-    assert row.split("|")[6].strip() == f"{peak['median']:.1f}, {peak['p99']:.1f} N"
+    assert row.split("|")[7].strip() == f"{peak['median']:.1f}, {peak['p99']:.1f} N"
     assert row.split("|")[3].strip().startswith(f"{summary['successes'] / 8:.1%}")
     for label, rows in (("μ", BINS), ("θ0 / (c/μ)", len(WEDGING_EDGES) - 1)):
         lines = joined.splitlines()
