@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from fbcc_ros.core.sim.montecarlo import wilson_interval
-from fbcc_ros.studies.trials_csv import BINS, Study, bin_masks, join_parts
+from fbcc_ros.studies.trials_csv import Study, bin_masks, friction_edges, join_parts
 
 #: The bins of the wedging ratio (:func:`wedging_ratio`): under 1 a two-point contact cannot
 #: wedge, over 1 it can.
@@ -35,9 +35,10 @@ WEDGING_EDGES = np.array([0.0, 0.5, 1.0, 2.0, 4.0, math.inf])
 
 def wedging_ratio(row: dict[str, float]) -> float:
     """A trial's initial tilt theta0 over c / mu, c = (R - r) / R the clearance ratio: a peg in
-    two-point contact can wedge when theta0 > c / mu (Whitney, "Quasi-static assembly of
-    compliantly supported rigid parts", J. Dyn. Sys., Meas., Control 104, 1982); infinite for
-    an interference fit."""
+    two-point contact can wedge when its tilt there exceeds c / mu (Whitney, "Quasi-static
+    assembly of compliantly supported rigid parts", J. Dyn. Sys., Meas., Control 104, 1982). The
+    initial tilt stands for the tilt at two-point contact, which a compliant grip changes on
+    the way; infinite for an interference fit."""
     c = (row["hole_radius"] - row["peg_radius"]) / row["hole_radius"]
     tilt = math.atan(math.hypot(math.tan(row["theta_x0"]), math.tan(row["theta_y0"])))
     return tilt * row["friction"] / c if c > 0 else math.inf
@@ -55,8 +56,8 @@ def binnings(cases: dict[str, Study]) -> list[tuple[str, Callable[[dict[str, flo
                                                      np.ndarray]]:  # fmt: skip
     """The tables' and the figure's binnings: (label, value, edges); the friction's over every
     case's draws."""
-    mu = [row["friction"] for case in cases.values() for row in case.values()]
-    return [("μ", lambda row: row["friction"], np.linspace(min(mu), max(mu), BINS + 1)),
+    mu = np.array([row["friction"] for case in cases.values() for row in case.values()])
+    return [("μ", lambda row: row["friction"], friction_edges(mu)),
             ("θ0 / (c/μ)", wedging_ratio, WEDGING_EDGES)]
 
 
@@ -72,20 +73,19 @@ def markdown(cases: dict[str, Study]) -> str:
     assembled at the end) and the tables of success against friction and against the
     wedging ratio (:func:`wedging_ratio`)."""
     lines = ["| case | trials | succeeded (95 %) | failed: force limit | failed: not assembled at "
-             "the end | the failed's final depth, median | peak Fz median, p99 | insertion "
-             "time median |", "|---|---|---|---|---|---|---|---|"]  # fmt: skip
+             "the end | failed trials' final depth, median | peak Fz median, p99 | insertion "
+             "time of the succeeded, median |", "|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for name, case in cases.items():
         rows = list(case.values())
         ok = np.array([bool(r["success"]) for r in rows])
         limited = np.array([bool(r["force_limited"]) for r in rows])
         time = np.array([r["insertion_time"] for r in rows])
         peak = np.array([r["peak_fz"] for r in rows])
-        assembled = ~np.isnan(time)
         median_time = f"{np.median(time[ok]):.2f} s" if ok.any() else "-"
         depth = np.array([r["final_l"] for r in rows])[~ok] * 1e3
         stuck = f"{np.median(depth):.2f} mm" if len(depth) else "-"  # on the rim, or wedged
         lines.append(f"| {name} | {len(rows)} | {_percent(int(ok.sum()), len(rows))} | "
-                     f"{int(limited.sum())} | {int((~assembled & ~limited).sum())} | {stuck} | "
+                     f"{int(limited.sum())} | {int((~ok & ~limited).sum())} | {stuck} | "
                      f"{np.median(peak):.1f}, {np.percentile(peak, 99):.1f} N | {median_time} |")
     for label, value, edges in binnings(cases):
         lines += ["", f"| {label} | " + " | ".join(cases) + " |", "|---" * (len(cases) + 1) + "|"]
@@ -107,11 +107,14 @@ def draw(cases: dict[str, Study], path: Path) -> None:
 
     fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.0))
     for ax, (label, value, edges) in zip(axes, binnings(cases), strict=True):
-        finite = np.minimum(edges, 2 * edges[-2])  # an open last bin drawn as one as wide
+        # an open last bin [a, inf) drawn as [a, 2a]
+        finite = np.minimum(edges, 2 * edges[-2]) if np.isinf(edges[-1]) else edges
         centres = 0.5 * (finite[:-1] + finite[1:])
         for j, (name, case) in enumerate(cases.items()):
             shown = [(c, k / n, *wilson_interval(k, n)) for c, (k, n) in
                      zip(centres, binned(case, value, edges), strict=True) if n]  # fmt: skip
+            if not shown:
+                continue
             x, rate, lo, hi = (np.array(v) for v in zip(*shown, strict=True))
             shift = (j - (len(cases) - 1) / 2) * 0.01 * (finite[-1] - finite[0])  # side by side
             bars = np.maximum(0.0, [rate - lo, hi - rate])  # Wilson's bounds, to rounding
@@ -139,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     cases: dict[str, Study] = {}
     for name, *given in args.case:
-        paths = [p for arg in given for p in arg.split(",")]  # parts: apart, or comma-joined
+        paths = [p for arg in given for p in arg.split(",") if p]  # parts: apart or comma-joined
         if not paths:
             parser.error(f"--case {name!r} names no trials.csv: expected NAME TRIALS_CSV...")
         if name in cases:

@@ -55,7 +55,7 @@ def markdown(pairs: list[tuple[int, dict[str, float], dict[str, float]]],
              f"| {second} peak Fz median |", "|---|---|---|---|---|---|"]  # fmt: skip
     mu = np.array([p[1]["friction"] for p in pairs])
     peak = np.array([[p[1]["peak_fz"], p[2]["peak_fz"]] for p in pairs])
-    for lo, hi, inside in friction_bins(mu, mu.min(), mu.max()):
+    for lo, hi, inside in friction_bins(mu):
         k = int(inside.sum())
         if not k:
             continue
@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--names", nargs=2, default=("model", "MuJoCo"),
                         metavar=("A", "B"), help="the plants' names in the tables")  # fmt: skip
     args = parser.parse_args(argv)
-    studies = [[Path(p) for p in arg.split(",")] for arg in (args.first, args.second)]
+    studies = [[Path(p) for p in arg.split(",") if p] for arg in (args.first, args.second)]
     for path in (p for parts in studies for p in parts):
         if not path.is_file():
             parser.error(f"{path}: no such file (a study's trials.csv)")

@@ -5,7 +5,7 @@ one, and the friction bins their tables share."""
 from __future__ import annotations
 
 import csv
-import itertools
+import json
 import math
 from pathlib import Path
 
@@ -29,16 +29,34 @@ def read_trials(path: Path, law: str) -> Study:
     return mine
 
 
+#: What a study's ``summary.json`` says of how its trials were drawn and run (``_run``): the
+#: parts of one study agree on all of it.
+DRAWN_WITH = ("seed", "max_offset_mm", "max_tilt_deg", "stiffness_gpa", "friction",
+              "feasible_force", "holder", "plant")
+
+
 def join_parts(paths: list[Path], law: str) -> Study:
-    """The trials of one study run in parts, by number: a trial in two parts must be the same
-    row in both."""
+    """The trials of one study run in parts, by number: the parts' ``summary.json`` (beside
+    each ``trials.csv``, where there is one) must agree on how the trials were drawn
+    (:data:`DRAWN_WITH`), and a trial in two parts must be the same row in both."""
     joined: Study = {}
+    where: dict[int, Path] = {}
+    drawn: tuple[Path, dict[str, object]] | None = None
     for path in paths:
+        summary = path.parent / "summary.json"
+        if summary.is_file():
+            run = json.loads(summary.read_text()).get("_run", {})
+            mine = {k: run.get(k) for k in DRAWN_WITH}
+            if drawn is not None and mine != drawn[1]:
+                differ = [k for k in DRAWN_WITH if mine[k] != drawn[1][k]]
+                raise ValueError(f"{path} and {drawn[0]} are not parts of one study: their "
+                                 f"summary.json differ in {differ}")  # fmt: skip
+            drawn = drawn or (path, mine)
         for number, row in read_trials(path, law).items():
             if number in joined and not _same(joined[number], row):
-                raise ValueError(f"trial {number} is in two parts of the study with different "
-                                 f"rows ({path} and an earlier one): not one study")  # fmt: skip
-            joined[number] = row
+                raise ValueError(f"trial {number} is in {where[number]} and {path} with "
+                                 "different rows: not parts of one study")  # fmt: skip
+            joined[number], where[number] = row, path
     return joined
 
 
@@ -49,14 +67,24 @@ def _same(a: dict[str, float], b: dict[str, float]) -> bool:
 
 
 def bin_masks(values: np.ndarray, edges: np.ndarray) -> list[np.ndarray]:
-    """Which of ``values`` fall in each bin [edges[i], edges[i + 1]), the last one closed."""
-    return [(values >= lo) & ((values < hi) | (hi == edges[-1]))
-            for lo, hi in itertools.pairwise(edges)]  # fmt: skip
+    """Which of ``values`` fall in each bin [edges[i], edges[i + 1]), the last one closed;
+    refused: a NaN value (it would fall in none)."""
+    if np.isnan(values).any():
+        raise ValueError(f"{int(np.isnan(values).sum())} values are NaN: not in any bin")
+    last = len(edges) - 2
+    return [(values >= edges[i]) & ((values < edges[i + 1]) | (i == last and values ==
+            edges[i + 1])) for i in range(last + 1)]  # fmt: skip
 
 
-def friction_bins(mu: np.ndarray, low: float, high: float
-                  ) -> list[tuple[float, float, np.ndarray]]:  # fmt: skip
-    """:data:`BINS` equal bins over [low, high]: each (lo, hi, which of ``mu`` fall in it)."""
-    edges = np.linspace(low, high, BINS + 1)
+def friction_edges(mu: np.ndarray) -> np.ndarray:
+    """:data:`BINS` equal bins over the drawn friction, one bin where it was not drawn (all
+    equal)."""
+    low, high = float(np.min(mu)), float(np.max(mu))
+    return np.linspace(low, high, BINS + 1) if high > low else np.array([low, high])
+
+
+def friction_bins(mu: np.ndarray) -> list[tuple[float, float, np.ndarray]]:
+    """The bins of :func:`friction_edges`: each (lo, hi, which of ``mu`` fall in it)."""
+    edges = friction_edges(mu)
     return [(float(lo), float(hi), inside) for lo, hi, inside in
             zip(edges[:-1], edges[1:], bin_masks(mu, edges), strict=True)]  # fmt: skip

@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from fbcc_ros.cli import montecarlo
 from fbcc_ros.studies.montecarlo_cases import WEDGING_EDGES, main, wedging_ratio
-from fbcc_ros.studies.trials_csv import BINS
+from fbcc_ros.studies.trials_csv import BINS, bin_masks, friction_edges
 
 SHORT = ("geometry: {hole_radius: 0.00505, peg_radius: 0.00504, hole_depth: 0.01,"
          " base_thickness: 0.005, friction: 0.3, stiffness: 1.84e+8}\n"
@@ -49,6 +51,12 @@ def test_a_case_in_parts_reads_as_the_whole_study(tmp_path: Path,
     peak = summary["peak_fz [N]"]  # the tail the studies judge (p99), from the same trials
     assert peak["p95"] <= peak["p99"] <= peak["max"]
     row = next(line for line in joined.splitlines() if line.startswith("| c | 8 |"))
+    cells = [c.strip() for c in row.split("|")]
+    # succeeded + failed on the force limit + not assembled = every trial
+    assert summary["successes"] + int(cells[4]) + int(cells[5]) == 8
+    with (whole / "trials.csv").open() as f:  # the failed trials' final depth, m to mm
+        depth = [float(r["final_l"]) * 1e3 for r in csv.DictReader(f) if r["success"] == "0"]
+    assert cells[6] == (f"{float(np.median(depth)):.2f} mm" if depth else "-")
     assert row.split("|")[7].strip() == f"{peak['median']:.1f}, {peak['p99']:.1f} N"
     assert row.split("|")[3].strip().startswith(f"{summary['successes'] / 8:.1%}")
     for label, rows in (("μ", BINS), ("θ0 / (c/μ)", len(WEDGING_EDGES) - 1)):
@@ -69,12 +77,24 @@ def test_the_wedging_ratio_is_the_tilt_over_c_over_mu() -> None:
     assert wedging_ratio(row | {"peg_radius": 5.06e-3}) == math.inf  # interference: no c
 
 
+def test_bins_hold_each_value_once() -> None:
+    edges = np.array([0.0, 0.5, 1.0, math.inf])
+    masks = bin_masks(np.array([0.0, 0.5, 0.99, 1.0, 7.0, math.inf]), edges)
+    assert [m.tolist() for m in masks] == [[True, False, False, False, False, False],
+                                           [False, True, True, False, False, False],
+                                           [False, False, False, True, True, True]]
+    same = np.full(5, 0.3)  # the friction not drawn: one bin, every trial in it once
+    assert [m.sum() for m in bin_masks(same, friction_edges(same))] == [5]
+    with pytest.raises(ValueError, match="NaN"):
+        bin_masks(np.array([0.1, math.nan]), edges)
+
+
 def test_parts_of_other_studies_and_bad_cases_are_refused(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:  # fmt: skip
     one = _study(tmp_path, "one", "--trials", "2") / "trials.csv"
     other = _study(tmp_path, "other", "--trials", "2", "--seed", "1") / "trials.csv"
     for args, message in (
-            (["--case", "c", str(one), str(other)], "trial 0 is in two parts"),
+            (["--case", "c", str(one), str(other)], "differ in ['seed']"),
             (["--case", "c"], "names no trials.csv"),
             (["--case", "c", str(one), "--case", "c", str(one)], "given twice"),
             (["--case", "c", str(tmp_path / "none.csv")], "no such file")):  # fmt: skip
