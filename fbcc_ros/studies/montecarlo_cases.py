@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from fbcc_ros.core.sim.montecarlo import wilson_interval
-from fbcc_ros.studies.trials_csv import Study, bin_masks, friction_edges, join_parts
+from fbcc_ros.studies.trials_csv import Study, bin_masks, friction_edges, join_parts, study_parts
 
 #: The bins of the wedging ratio (:func:`wedging_ratio`): under 1 a two-point contact cannot
 #: wedge, over 1 it can.
@@ -142,16 +142,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     cases: dict[str, Study] = {}
     for name, *given in args.case:
-        paths = [p for arg in given for p in arg.split(",") if p]  # parts: apart or comma-joined
-        if not paths:
-            parser.error(f"--case {name!r} names no trials.csv: expected NAME TRIALS_CSV...")
         if name in cases:
             parser.error(f"--case {name!r} is given twice: expected distinct names")
-        for path in map(Path, paths):
-            if not path.is_file():
-                parser.error(f"{path}: no such file (a study's trials.csv)")
         try:
-            cases[name] = join_parts([Path(p) for p in paths], args.law)
+            paths = study_parts(given)
+            if not paths:
+                parser.error(f"--case {name!r} names no trials.csv: expected NAME TRIALS_CSV...")
+            cases[name] = join_parts(paths, args.law)
         except ValueError as exc:
             parser.error(str(exc))
     print(markdown(cases))

@@ -13,12 +13,12 @@ prints the tables of docs/plant.md (a study run in parts: ``PART1/trials.csv,PAR
 from __future__ import annotations
 
 import argparse
+import itertools
 import sys
-from pathlib import Path
 
 import numpy as np
 
-from fbcc_ros.studies.trials_csv import Study, friction_bins, join_parts
+from fbcc_ros.studies.trials_csv import Study, bin_masks, friction_edges, join_parts, study_parts
 
 #: The columns a trial's draw fills: two studies pair only where all of them agree.
 DRAWN = ("dx0", "dy0", "theta_x0", "theta_y0", "hole_radius", "peg_radius", "stiffness",
@@ -55,7 +55,8 @@ def markdown(pairs: list[tuple[int, dict[str, float], dict[str, float]]],
              f"| {second} peak Fz median |", "|---|---|---|---|---|---|"]  # fmt: skip
     mu = np.array([p[1]["friction"] for p in pairs])
     peak = np.array([[p[1]["peak_fz"], p[2]["peak_fz"]] for p in pairs])
-    for lo, hi, inside in friction_bins(mu):
+    edges = friction_edges(mu)
+    for (lo, hi), inside in zip(itertools.pairwise(edges), bin_masks(mu, edges), strict=True):
         k = int(inside.sum())
         if not k:
             continue
@@ -76,11 +77,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--names", nargs=2, default=("model", "MuJoCo"),
                         metavar=("A", "B"), help="the plants' names in the tables")  # fmt: skip
     args = parser.parse_args(argv)
-    studies = [[Path(p) for p in arg.split(",") if p] for arg in (args.first, args.second)]
-    for path in (p for parts in studies for p in parts):
-        if not path.is_file():
-            parser.error(f"{path}: no such file (a study's trials.csv)")
     try:
+        studies = [study_parts([arg]) for arg in (args.first, args.second)]
         pairs = pair_trials(*(join_parts(parts, args.law) for parts in studies))
     except ValueError as exc:
         parser.error(str(exc))

@@ -17,6 +17,16 @@ Study = dict[int, dict[str, float]]
 BINS = 4
 
 
+def study_parts(given: list[str]) -> list[Path]:
+    """The trials.csv of one study, or of its parts, given apart or joined by commas; a file
+    that is not there refused."""
+    paths = [Path(p) for arg in given for p in arg.split(",") if p]
+    for path in paths:
+        if not path.is_file():
+            raise ValueError(f"{path}: no such file (a study's trials.csv)")
+    return paths
+
+
 def read_trials(path: Path, law: str) -> Study:
     """The rows of ``law`` in a study's ``trials.csv``, by trial number."""
     with path.open(newline="") as f:
@@ -81,10 +91,3 @@ def friction_edges(mu: np.ndarray) -> np.ndarray:
     equal)."""
     low, high = float(np.min(mu)), float(np.max(mu))
     return np.linspace(low, high, BINS + 1) if high > low else np.array([low, high])
-
-
-def friction_bins(mu: np.ndarray) -> list[tuple[float, float, np.ndarray]]:
-    """The bins of :func:`friction_edges`: each (lo, hi, which of ``mu`` fall in it)."""
-    edges = friction_edges(mu)
-    return [(float(lo), float(hi), inside) for lo, hi, inside in
-            zip(edges[:-1], edges[1:], bin_masks(mu, edges), strict=True)]  # fmt: skip
