@@ -86,7 +86,7 @@ def _check_tilted_less_than_90(rotation_peg_in_hole: FloatArray) -> float:
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
-def _axis_and_tip(
+def axis_and_tip(
     dx: float, dy: float, depth: float, theta_x: float, theta_y: float, peg_radius: float
 ) -> tuple[float, float, float, float, float, float]:
     """The peg's upward axis ``a`` and its tip centre in {H}, ``(a_x, a_y, a_z, p_x, p_y, p_z)``,
@@ -158,7 +158,7 @@ def pose_from_features(
         raise InputError(
             "features (theta_x, theta_y)", (theta_x, theta_y), "tilts within (-pi/2, pi/2) rad"
         )
-    a_x, a_y, a_z, tip_x, tip_y, tip_z = _axis_and_tip(dx, dy, depth, theta_x, theta_y,
+    a_x, a_y, a_z, tip_x, tip_y, tip_z = axis_and_tip(dx, dy, depth, theta_x, theta_y,
                                                        peg_radius)  # fmt: skip
     c, s = math.cos(spin), math.sin(spin)
     # R_HP = S(a) R_aligned R_z(spin) = S(a) [[c, -s, 0], [-s, -c, 0], [0, 0, -1]], multiplied
@@ -190,7 +190,7 @@ def in_deviated_hole(
     """Features into ``out`` (5,) of the peg at ``pose`` (5,) of the believed hole, in the hole
     at ``deviation`` (5,) (see :func:`true_features`)."""
     b_x, b_y, b_z, q_x, q_y, q_z = _hole_frame(deviation, r_nominal)
-    a_x, a_y, a_z, p_x, p_y, p_z = _axis_and_tip(pose[0], pose[1], pose[2], pose[3], pose[4],
+    a_x, a_y, a_z, p_x, p_y, p_z = axis_and_tip(pose[0], pose[1], pose[2], pose[3], pose[4],
                                                  r_nominal)  # fmt: skip
     out[0], out[1], out[2], out[3], out[4] = _in_hole(
         a_x, a_y, a_z, p_x, p_y, p_z, b_x, b_y, b_z, q_x, q_y, q_z, r_true, True)
@@ -202,7 +202,7 @@ def _hole_frame(
 ) -> tuple[float, float, float, float, float, float]:
     """T_{H_true H} = P(x_dev) P(0)^-1 = (S(b), q) of the hole at ``deviation`` (5,): the axis
     b and tip q of P(x_dev), ``(b_x, b_y, b_z, q_x, q_y, q_z)``."""
-    return _axis_and_tip(deviation[0], deviation[1], 0.0, deviation[3], deviation[4], r_nominal)
+    return axis_and_tip(deviation[0], deviation[1], 0.0, deviation[3], deviation[4], r_nominal)
 
 
 @numba.njit(cache=True, inline="always")  # type: ignore[misc]
@@ -258,7 +258,7 @@ def true_rows_at(pose: FloatArray, frames: FloatArray, r_nominal: float, r_true:
     deviation filter's particles, whose holes move less often than the peg). The pose's axis
     and tip are found once; the loop over the holes vectorises, each one's tilts within 2 ulp
     (:func:`_features_of` not exact)."""
-    a_x, a_y, a_z, p_x, p_y, p_z = _axis_and_tip(pose[0], pose[1], pose[2], pose[3], pose[4],
+    a_x, a_y, a_z, p_x, p_y, p_z = axis_and_tip(pose[0], pose[1], pose[2], pose[3], pose[4],
                                                  r_nominal)  # fmt: skip
     for i in range(frames.shape[1]):
         out[0, i], out[1, i], out[2, i], out[3, i], out[4, i] = _in_hole(

@@ -26,7 +26,10 @@ from fbcc_ros.core.arrays import FloatArray
 GL_ORDER = 3
 GL_NODES, GL_WEIGHTS = np.polynomial.legendre.leggauss(GL_ORDER)
 #: Scratch rows :func:`response_kernel` needs per feature row (its ``work``, (WORK_ROWS, N)).
-WORK_ROWS = 17
+WORK_ROWS = 19
+#: Rows of a pair table (:class:`~fbcc_ros.core.contact.model.ContactBatch`): R, r, mu, k, L, H,
+#: peg_length, chamfer W, rim (1.0: the hole has its top face and bottom, :mod:`.rim`).
+TABLE_ROWS = 9
 
 
 @functools.lru_cache(maxsize=8)
@@ -59,14 +62,17 @@ def response_kernel(
     out: FloatArray,
     work: FloatArray,
 ) -> None:
-    """The wrench on the hole (N, 5) into ``out`` for feature rows ``f`` (N, 5), row i with
-    pair i of ``table`` (7, N) or its only one; ``work`` (WORK_ROWS, N) is scratch."""
+    """The wall's wrench on the hole (N, 5) into ``out`` for feature rows ``f`` (N, 5), row i
+    with pair i of ``table`` (TABLE_ROWS, N) or its only one; ``work`` (WORK_ROWS, N) is
+    scratch. With the rim (:mod:`.rim`) the wall starts under the chamfer, at z = -W, and a
+    slice's overlap deeper than the slice lies under that top is the face's, not the wall's."""
     n_a = ca.shape[0]
     per_row = table.shape[1] > 1
     # Per row: the lean frame, the slice geometry of eq. (5) and the lever's arm.
     e_x, e_y, m_p, a0, tan_t, sin_t = work[0], work[1], work[2], work[3], work[4], work[5]
     cos2, s_u, s_lo, hole, r2, arm = work[6], work[7], work[8], work[9], work[10], work[11]
     sum_g0, sum_c, sum_s, lev_c, lev_s = work[12], work[13], work[14], work[15], work[16]
+    s_w, rim = work[17], work[18]
     for i in range(f.shape[0]):
         c = i if per_row else 0  # the pair of this row
         R, r, mu = table[0, c], table[1, c], table[2, c]
@@ -88,6 +94,8 @@ def response_kernel(
         a0[i] = m_e - (0.5 * l + r * sin_t[i]) * sin_t[i]
         s_u[i] = l * cos_t  # top face of the hole, s_u = l cos(theta)
         s_lo[i] = max(0.0, s_u[i] - L)  # no wall below the hole's depth L
+        rim[i] = table[8, c]
+        s_w[i] = s_u[i] - table[7, c]  # the wall's top, under the chamfer (W = 0 without rim)
         hole[i], r2[i] = R, r * r
         # Height of the equivalent acting point z_A in {H}: on the axis, peg_length from the
         # tip centre (which eq. 5 puts at s_tip = r sin(theta) cos(theta)), or the hole bottom.
@@ -114,7 +122,7 @@ def response_kernel(
             centre = (hole[i] * d_e - a0[i]) / tan_t[i]
             lo, hi = centre - half, centre + half
             s1 = lo if lo > s_lo[i] else s_lo[i]
-            s2 = hi if hi < s_u[i] else s_u[i]
+            s2 = hi if hi < s_w[i] else s_w[i]
             hits = hits & (s2 > s1)  # else the ray misses the peg
             half_len, mid = 0.5 * (s2 - s1), 0.5 * (s1 + s2)
             qa = d_e * d_e * cos2[i] + d_p * d_p
@@ -122,6 +130,9 @@ def response_kernel(
             for q in range(GL_ORDER):
                 s = mid + half_len * GL_NODES[q]
                 gap = _overlap(s, a0[i], tan_t[i], d_e, d_p, m_p[i], cos2[i], r2[i], qa, hole[i])
+                # with the rim, an overlap deeper than the slice is under the wall's top is
+                # pushed out the shorter way, up by the face (:mod:`.rim`): not the wall's
+                gap = 0.0 if rim[i] > 0.0 and gap > s_w[i] - s else gap
                 g0 += GL_WEIGHTS[q] * gap
                 g1s += GL_WEIGHTS[q] * gap * s
             g0 = g0 * half_len if hits else 0.0

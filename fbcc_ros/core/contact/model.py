@@ -39,6 +39,7 @@ from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.kernel import WORK_ROWS, angle_table, response_kernel
+from fbcc_ros.core.contact.rim import RAYS_PER_WALL_RAY, no_slide, rim_kernel
 from fbcc_ros.core.errors import ConfigError, InputError
 
 #: Order of the features in every feature vector: (dx, dy, l, theta_x, theta_y).
@@ -139,6 +140,11 @@ class PegHole:
         peg_length: Length of the peg from its tip to its top face [m]; used by ``"peg_top"``.
         n_angles: Points of the periodic rule over alpha (a multiple of 4, so that the rule is
             symmetric under 90° rotations about z).
+        rim: Whether the hole block is solid around and under the bore: its top face, the
+            chamfer and the bottom press on the peg's end face (:mod:`.rim`). False: the
+            paper's model, the wall alone (a peg beside the hole touches nothing).
+        chamfer: W, the width of the hole's 45° chamfer [m] (0: a sharp edge); only with
+            ``rim``.
     """
 
     hole_radius: float
@@ -150,6 +156,8 @@ class PegHole:
     acting_point: ActingPoint = "hole_bottom"
     peg_length: float = 0.05
     n_angles: int = 48
+    rim: bool = False
+    chamfer: float = 0.0
 
     def __post_init__(self) -> None:
         _check_positive("hole_radius", self.hole_radius)
@@ -166,6 +174,14 @@ class PegHole:
             _check_positive("peg_length", self.peg_length)
         if not (isinstance(self.n_angles, int) and self.n_angles >= 8 and self.n_angles % 4 == 0):
             raise ConfigError("n_angles", self.n_angles, "an integer >= 8 that is a multiple of 4")
+        if not isinstance(self.rim, bool):
+            raise ConfigError("rim", self.rim, "true or false")
+        if not (math.isfinite(self.chamfer) and 0.0 <= self.chamfer < self.hole_depth):
+            raise ConfigError("chamfer", self.chamfer,
+                              f"a width in m in [0, hole_depth {self.hole_depth:g})")  # fmt: skip
+        if self.chamfer > 0 and not self.rim:
+            raise ConfigError("chamfer", self.chamfer, "0 without the rim (rim: false has no "
+                              "top face to chamfer)")  # fmt: skip
 
     @classmethod
     def from_materials(
@@ -242,7 +258,7 @@ class PegHole:
         # eq. (11) with p = k delta / R over the band 2 pi R l
         return self.friction * 2.0 * math.pi * delta * l * self.stiffness
 
-    def response(self, features: ArrayLike) -> FloatArray:
+    def response(self, features: ArrayLike, slide: ArrayLike | None = None) -> FloatArray:
         """Responses (Fx, Fy, Fz, Mx, My) for features (dx, dy, l, theta_x, theta_y).
 
         Implements eq. (5)-(13) of the paper. The wrench is the one the peg exerts on the hole,
@@ -251,18 +267,31 @@ class PegHole:
         positive while the peg is pushed in (it drags the hole along -z; the moment arms ``mu R``
         of eq. 12-13 come from that friction).
 
+        With the rim, the top face, the chamfer and the bottom add their wrench
+        (:mod:`.rim`), and a negative depth (the peg above the hole) is allowed.
+
         Args:
-            features: shape (5,) or (N, 5); lengths in m, angles in rad; depth l >= 0.
+            features: shape (5,) or (N, 5); lengths in m, angles in rad; depth l >= 0
+                without the rim.
+            slide: The peg's velocity in {H} [m/s], shape (3,) or (N, 3), for the friction of
+                the rim (None: at rest).
 
         Returns:
             Responses of the same shape; forces in N, moments in N·m. A depth of zero, or a
-            peg that touches no wall, gives an exactly zero wrench.
+            peg that touches no wall, gives an exactly zero wrench without the rim.
         """
         f2, single = as_rows(features, "features", "(dx, dy, l, theta_x, theta_y)")
-        if (f2[:, 2] < 0).any():
+        if not self.rim and (f2[:, 2] < 0).any():
             bad_l = float(f2[f2[:, 2] < 0, 2][0])
-            raise InputError("features.l", bad_l, "an insertion depth >= 0 in m")
-        out = self._batch.response(f2)
+            raise InputError("features.l", bad_l, "an insertion depth >= 0 in m (the model "
+                             "without the rim has nothing above the hole)")  # fmt: skip
+        v = None if slide is None else np.asarray(slide, dtype=float)
+        if v is not None:
+            v = v.reshape(1, -1) if v.ndim == 1 else v
+        if v is not None and (v.shape != (len(f2), 3) or not np.isfinite(v).all()):
+            raise InputError("slide", np.asarray(slide).tolist(), "finite velocities (vx, vy, "
+                             "vz) in m/s, one per feature row")  # fmt: skip
+        out = self._batch.response(f2, v)
         return out[0] if single else out
 
     @functools.cached_property
@@ -279,7 +308,8 @@ class ContactBatch:
     rows (that is what :meth:`PegHole.response` uses).
 
     Attributes:
-        table: (7, N) rows R, r, mu, k, L, H, peg_length [SI], one column per pair.
+        table: (TABLE_ROWS, N) rows R, r, mu, k, L, H, peg_length, chamfer [SI] and rim (1.0
+            or 0.0), one column per pair.
         peg_top: Whether the moments are taken at the peg's top face (else the hole bottom).
         n_angles: Points of the periodic rule over alpha.
     """
@@ -311,6 +341,8 @@ class ContactBatch:
                     ph.hole_depth,
                     ph.base_thickness,
                     ph.peg_length,
+                    ph.chamfer,
+                    float(ph.rim),
                 ]
                 for ph in pegholes
             ]
@@ -320,8 +352,10 @@ class ContactBatch:
     def __len__(self) -> int:
         return int(self.table.shape[1])
 
-    def response(self, features: FloatArray) -> FloatArray:
-        """eq. (5)-(13) for validated rows of shape (N, 5): row i uses pair i (or the only one).
+    def response(self, features: FloatArray, slide: FloatArray | None = None) -> FloatArray:
+        """eq. (5)-(13), and the rim where a pair has it, for validated rows of shape (N, 5):
+        row i uses pair i (or the only one); ``slide`` (N, 3) the pegs' velocities [m/s] (None:
+        at rest).
 
         No validation here: this is the simulator's inner loop. :meth:`PegHole.response` is the
         checked entry point.
@@ -332,6 +366,15 @@ class ContactBatch:
             )
         ca, sa = angle_table(self.n_angles)
         out = np.empty((len(features), 5))
-        response_kernel(np.ascontiguousarray(features, dtype=float), self.table, self.peg_top,
-                        ca, sa, out, np.empty((WORK_ROWS, len(features))))  # fmt: skip
+        f = np.ascontiguousarray(features, dtype=float)
+        response_kernel(f, self.table, self.peg_top, ca, sa, out, np.empty((WORK_ROWS, len(f))))
+        if self.has_rim:
+            v = no_slide(len(f)) if slide is None else np.ascontiguousarray(slide, dtype=float)
+            rim_ca, rim_sa = angle_table(RAYS_PER_WALL_RAY * self.n_angles)
+            rim_kernel(f, v, self.table, self.peg_top, rim_ca, rim_sa, out)
         return out
+
+    @functools.cached_property
+    def has_rim(self) -> bool:
+        """Whether any pair has the rim (:attr:`PegHole.rim`)."""
+        return bool((self.table[8] > 0).any())

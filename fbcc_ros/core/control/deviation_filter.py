@@ -180,10 +180,7 @@ class DeviationFilter:
         self._particles = n
         #: the surprise's running mean over SURPRISE_MEMORY updates (LOST and under: redrawn)
         self.surprise_mean = 0.0
-        self._table = np.tile(np.array([[nominal.hole_radius], [nominal.peg_radius],
-                                        [nominal.friction], [nominal.stiffness],
-                                        [nominal.hole_depth], [nominal.base_thickness],
-                                        [nominal.peg_length]]), (1, n))  # fmt: skip
+        self._table = np.tile(ContactBatch.of([nominal]).table, (1, n))
         self._peg_top = nominal.acting_point == "peg_top"
         self._noise = np.asarray(unc.noise, dtype=float)
 

@@ -106,7 +106,7 @@ class StateFeed:
 
 def window_gap(window: FloatArray, deviation: FloatArray, pair: FloatArray, peg_top: bool,
                n_angles: int, peg_radius: float) -> tuple[FloatArray, FloatArray]:
-    """Of a hole at ``deviation`` (5,) and the contact model's pair ``pair`` (7, 1,
+    """Of a hole at ``deviation`` (5,) and the contact model's pair ``pair`` (TABLE_ROWS, 1,
     :class:`~fbcc_ros.core.contact.model.ContactBatch`'s table): the mean response over the
     measured features ``window`` (n, 5) less the response at their mean, (5,), and the
     responses at each row and at the mean, (n + 1, 5) (module doc):

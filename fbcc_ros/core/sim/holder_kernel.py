@@ -125,7 +125,7 @@ def solve_rows(
     evals: NDArray[np.int64], iters: NDArray[np.int64],
 ) -> None:  # fmt: skip
     n = xr.shape[0]
-    tab = np.empty((7, 1))
+    tab = np.empty((contact_kernel.TABLE_ROWS, 1))
     work = np.empty((contact_kernel.WORK_ROWS, 1))  # the contact kernel's scratch
     fbuf, wbuf = np.empty((1, 5)), np.empty((1, 5))
     fbuf_t, wbuf_t = np.empty((1, 5)), np.empty((1, 5))
@@ -133,7 +133,7 @@ def solve_rows(
     dz, dr, jdz, scratch = np.empty(4), np.empty(4), np.empty(4), np.empty((4, 4))
     for i in range(n):
         c = i if table.shape[1] > 1 else 0
-        for m in range(7):
+        for m in range(contact_kernel.TABLE_ROWS):
             tab[m, 0] = table[m, c]
         qi, ji = q[i], jac[i]
         merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, work, k, tol,

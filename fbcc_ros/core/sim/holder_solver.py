@@ -164,6 +164,10 @@ class HolderSolver:
         contact = _contact_of(response)
         if contact is not None and len(contact) not in (1, n):
             raise InputError("x_robot", f"{n} rows", f"{len(contact)} rows, one per pair")
+        if contact is not None and contact.has_rim:
+            # the face pushes the peg along its axis, where this holder is rigid
+            raise ConfigError("geometry.rim", True, "false with a holder: the holder has no "
+                              "axial spring for the top face to push against yet")  # fmt: skip
         if self.holder.is_rigid:
             w = contact.response(xr) if contact is not None else holder_batched.call(response, xr)  # type: ignore[arg-type]
             self.evaluations, self.iterations = n, 0

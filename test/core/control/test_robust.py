@@ -257,7 +257,8 @@ def _behind_a_delay(
     """The simulator's plant (rigid holder, 5 ms lag, default noise) whose commands take effect
     ``delay_steps`` periods late (scenario ``robot.delay``), 4 s: (phase, final depth, peak
     |(Fx, Fy)|, peak |F|), and with ``keep`` the commands (T, 5)."""
-    sc = validate({"geometry": dataclasses.asdict(ph),
+    geometry = {k: v for k, v in dataclasses.asdict(ph).items() if k not in ("rim", "chamfer")}
+    sc = validate({"geometry": geometry,
                    "initial": {"dx": dev[0], "dy": dev[1], "theta_x": dev[3],
                                "theta_y": dev[4]},
                    "robot": {"delay": delay_steps * DT}, "duration": 4.0})  # fmt: skip

@@ -1,0 +1,223 @@
+"""The hole's rim in the contact model: its top face, a 45° chamfer and its bottom, pressing on the
+peg's end face. Eq. 5-13 (:mod:`.kernel`) are the wall alone: a peg beside the hole touches
+nothing, so finding the hole was never part of the paper's problem. A real hole block is solid
+around and under the bore; with ``PegHole(rim=True)`` the model adds, in {H} (ρ the distance from
+the hole's axis):
+
+* the **top face**, z = 0 for ρ ≥ R + W, outward normal ẑ;
+* a 45° **chamfer** of width W (0: a sharp edge), the cone z = -(R + W - ρ) for R ≤ ρ < R + W,
+  outward normal (ẑ - ρ̂)/√2: it pushes a peg on it up and toward the axis;
+* the **bottom**, z = -L under the bore, outward normal ẑ.
+
+**Contact law.** Eq. 8's, on the peg's end face: an element dA that lies g inside the solid
+(along the surface's normal) carries ``p = k g / R`` along the normal, with the wall's k, so a
+part's face is as stiff as its wall. An element beside the bore and under the wall's top
+(ρ > R, z < -W) that lies deeper under the face than it overlaps the wall (ρ - R) is the wall's:
+the solid pushes it out the shorter way, as a convex collision does (MuJoCo's too). The wall in
+turn drops the overlaps the face carries (:func:`~.kernel.response_kernel`). So a peg standing
+0.1 mm off a 10 µm hole is held up by the face on a crescent 90 µm wide and pushed nowhere by
+the wall, and the support's moment, about 0.8 r times Fz, tips it toward the hole.
+
+**Friction.** Coulomb on every element: μ dN against the peg's sliding velocity ``v`` [m/s] in
+{H}, in the element's tangent plane, regularised below :data:`SLIDE_EPS`:
+``dF_t = -μ dN v_t / max(|v_t|, SLIDE_EPS)``. The quasi-static model has no velocity of its own,
+so the caller gives v (the plant: the hand's motion over the period). A peg at rest on the face
+feels no friction there; the wall's eq. 11 by contrast always assumes the peg is pushed in.
+
+**Quadrature.** The end face in polar coordinates about its centre, ``ρ' dρ' dφ``:
+:data:`RAYS_PER_WALL_RAY` times ``n_angles`` rays, turned so that one runs to the edge's deepest
+point, each cut exactly wherever its integrand has a kink (:data:`~.kernel.GL_ORDER`
+Gauss-Legendre nodes per piece): where it crosses ρ = R and ρ = R + W, the chamfer's surface,
+the two face-or-wall boundaries (all roots of a quadratic in ρ') and z = 0, -W, -L (linear).
+The crescent above is 90 µm wide on a 5 mm face, which a uniform grid would miss; an aligned
+peg on the chamfer touches it on a sliver microns wide.
+
+The response is the wrench on the hole in the model's convention (:meth:`~.model.PegHole.
+response`): ``Fz`` positive when the peg pushes the hole along -z, moments about the pair's
+acting point.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.contact.features import axis_and_tip
+from fbcc_ros.core.contact.kernel import GL_NODES, GL_ORDER, GL_WEIGHTS
+
+#: The sliding speed below which the face's friction is proportional to the speed [m/s]: 0.1
+#: mm/s, a fiftieth of the insertion speed, above the µm-per-period drift of a held peg.
+SLIDE_EPS = 1.0e-4
+#: Rays of the end face per ray of the wall: a face contact is a crescent or a patch at an edge,
+#: far narrower than the wall's band.
+RAYS_PER_WALL_RAY = 4
+#: Points of the edge searched for its deepest, per ray.
+_SEARCH = 4
+#: 1/√2: the 45° chamfer's normal components and its depth-to-normal factor.
+_HALF_SQRT2 = math.sqrt(0.5)
+#: 1 - 1/√2: rho's factor where the chamfer's depth equals the overlap with the wall.
+_WALL_CONE = 1.0 - _HALF_SQRT2
+
+
+@numba.njit(cache=True, inline="always")  # type: ignore[misc]
+def _radius_roots(a: float, b: float, c0: float, alpha: float, beta: float, out: FloatArray,
+                  n: int) -> int:  # fmt: skip
+    """Append to ``out`` the ρ' where a ray ``c + ρ' d`` (``a = |d_xy|²``, ``b = c·d_xy``,
+    ``c0 = |c_xy|²``) lies ``alpha + beta ρ'`` from the axis (a circle: beta = 0; a cone's
+    surface: the height along the ray is linear in ρ'); returns the new count."""
+    qa, qb, qc = a - beta * beta, b - alpha * beta, c0 - alpha * alpha
+    if abs(qa) < 1e-12:
+        if qb != 0.0:
+            out[n] = -0.5 * qc / qb
+            return n + 1
+        return n
+    disc = qb * qb - qa * qc
+    if disc > 0.0:
+        root = math.sqrt(disc)
+        out[n] = (-qb - root) / qa
+        out[n + 1] = (-qb + root) / qa
+        return n + 2
+    return n
+
+
+@numba.njit(cache=True, inline="always")  # type: ignore[misc]
+def _depth(ex: float, ey: float, ez: float, R: float, W: float, L: float
+           ) -> tuple[float, float, float, float]:  # fmt: skip
+    """How deep the point (ex, ey, ez) of the end face lies in the rim's solid, and the
+    surface's outward normal there (module doc): ``(gap, nx, ny, nz)``, gap <= 0 outside."""
+    rho = math.hypot(ex, ey)
+    gap, nx, ny, nz = 0.0, 0.0, 0.0, 1.0
+    if rho > R:
+        if rho >= R + W:  # the top face
+            gap = -ez
+        else:  # the chamfer: depth under the cone, along its normal
+            gap = (-(R + W - rho) - ez) * _HALF_SQRT2
+            nx, ny, nz = -ex / rho * _HALF_SQRT2, -ey / rho * _HALF_SQRT2, _HALF_SQRT2
+        if ez < -W and rho - R < gap:  # nearer the bore's wall: the wall's
+            gap = 0.0
+    elif ez < -L:  # the bottom
+        gap = -L - ez
+    return gap, nx, ny, nz
+
+
+@numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
+def rim_kernel(
+    f: FloatArray,
+    slide: FloatArray,
+    table: FloatArray,
+    peg_top: bool,
+    ca: FloatArray,
+    sa: FloatArray,
+    out: FloatArray,
+) -> None:
+    """Add the rim's wrench on the hole (module doc) to ``out`` (N, 5), for feature rows ``f``
+    (N, 5), any depth, the peg's velocity ``slide`` (N, 3) [m/s] in {H}, row i with pair i of
+    ``table`` (:data:`~.kernel.TABLE_ROWS`, N) or its only one; rows whose pair has no rim
+    are left as they are. ``ca``, ``sa``: the rays' angles (:func:`~.kernel.angle_table`),
+    turned per row (module doc)."""
+    n_a = ca.shape[0]
+    per_row = table.shape[1] > 1
+    cuts = np.empty(16)
+    for i in range(f.shape[0]):
+        c = i if per_row else 0
+        if table[8, c] <= 0.0:
+            continue
+        R, r, mu, k = table[0, c], table[1, c], table[2, c], table[3, c]
+        L, H, peg_length, W = table[4, c], table[5, c], table[6, c], table[7, c]
+        ax, ay, az, px, py, pz = axis_and_tip(f[i, 0], f[i, 1], f[i, 2], f[i, 3], f[i, 4], r)
+        # the end face lies within r sin(theta) of its centre's height: skip what is clear of
+        # the face, the chamfer and the bottom (most rows of an insertion)
+        reach = r * math.sqrt(ax * ax + ay * ay)
+        if pz - reach > 0.0 or (pz - reach > -L and math.hypot(px, py) + r < R):
+            continue
+        # the end face's axes u, v: the swing rotation's first two columns (features._swing)
+        q = 1.0 / (1.0 + az)
+        ux, uy, uz = 1.0 - ax * ax * q, -ax * ay * q, -ax
+        vx, vy, vz = -ax * ay * q, 1.0 - ay * ay * q, -ay
+        if peg_top:  # the acting point: the grip point on the axis, or the hole bottom's centre
+            gx, gy, gz = px + peg_length * ax, py + peg_length * ay, pz + peg_length * az
+        else:
+            gx, gy, gz = 0.0, 0.0, -(L + H)
+        sx, sy, sz = slide[i, 0], slide[i, 1], slide[i, 2]
+        # turn the rays so that one runs to the edge's deepest point: a tilted edge first
+        # touches at a point, which rays spaced evenly from anywhere else would step over
+        deepest, phi0 = -math.inf, 0.0
+        for m in range(_SEARCH * n_a):
+            phi = m * (2.0 * math.pi / (_SEARCH * n_a))
+            cp, sp = math.cos(phi), math.sin(phi)
+            gap = _depth(px + r * (cp * ux + sp * vx), py + r * (cp * uy + sp * vy),
+                         pz + r * (cp * uz + sp * vz), R, W, L)[0]  # fmt: skip
+            if gap > deepest:
+                deepest, phi0 = gap, phi
+        turn = phi0 - math.atan2(sa[0], ca[0])
+        ct, st = math.cos(turn), math.sin(turn)
+        fx = fy = fz = mx = my = 0.0
+        w_ray = k / R * (2.0 * math.pi / n_a)
+        for j in range(n_a):
+            cj, sj = ca[j] * ct - sa[j] * st, sa[j] * ct + ca[j] * st
+            dx, dy, dz = cj * ux + sj * vx, cj * uy + sj * vy, cj * uz + sj * vz
+            a2, b, c0 = dx * dx + dy * dy, px * dx + py * dy, px * px + py * py
+            # the ray's pieces: [0, r] cut where it crosses the circles and the planes
+            n_cut = 0
+            cuts[n_cut] = 0.0
+            cuts[n_cut + 1] = r
+            n_cut = _radius_roots(a2, b, c0, R, 0.0, cuts, n_cut + 2)
+            n_cut = _radius_roots(a2, b, c0, R + W, 0.0, cuts, n_cut)
+            # the chamfer's surface, rho = R + W + z, and where the face's or the chamfer's
+            # depth equals the overlap with the wall: rho - R = -z, and
+            # rho - R = (z_cone - z) / sqrt(2)
+            n_cut = _radius_roots(a2, b, c0, R + W + pz, dz, cuts, n_cut)
+            n_cut = _radius_roots(a2, b, c0, R - pz, -dz, cuts, n_cut)
+            n_cut = _radius_roots(a2, b, c0, (R - (R + W + pz) * _HALF_SQRT2) / _WALL_CONE,
+                                  -dz * _HALF_SQRT2 / _WALL_CONE, cuts, n_cut)  # fmt: skip
+            if dz != 0.0:
+                for z_cut in (0.0, -W, -L):
+                    cuts[n_cut] = (z_cut - pz) / dz
+                    n_cut += 1
+            for m in range(1, n_cut):  # insertion sort of a handful of numbers
+                x, p = cuts[m], m - 1
+                while p >= 0 and cuts[p] > x:
+                    cuts[p + 1] = cuts[p]
+                    p -= 1
+                cuts[p + 1] = x
+            for m in range(n_cut - 1):
+                lo = cuts[m] if cuts[m] > 0.0 else 0.0
+                hi = cuts[m + 1] if cuts[m + 1] < r else r
+                if hi <= lo:
+                    continue
+                half, mid = 0.5 * (hi - lo), 0.5 * (hi + lo)
+                for g_node in range(GL_ORDER):
+                    rho_p = mid + half * GL_NODES[g_node]
+                    ex, ey, ez = px + rho_p * dx, py + rho_p * dy, pz + rho_p * dz
+                    gap, nx, ny, nz = _depth(ex, ey, ez, R, W, L)
+                    if gap <= 0.0:
+                        continue
+                    dn = w_ray * GL_WEIGHTS[g_node] * half * rho_p * gap  # p dA (eq. 8)
+                    # friction against the sliding velocity's tangential part, on the peg
+                    vn = sx * nx + sy * ny + sz * nz
+                    tx, ty, tz = sx - vn * nx, sy - vn * ny, sz - vn * nz
+                    speed = math.sqrt(tx * tx + ty * ty + tz * tz)
+                    fric = mu * dn / (speed if speed > SLIDE_EPS else SLIDE_EPS)
+                    # the force on the hole: minus the normal push and the friction on the peg
+                    hx = -dn * nx + fric * tx
+                    hy = -dn * ny + fric * ty
+                    hz = -dn * nz + fric * tz
+                    fx += hx
+                    fy += hy
+                    fz -= hz  # Fz > 0 drags the hole along -z
+                    rx, ry, rz = ex - gx, ey - gy, ez - gz
+                    mx += ry * hz - rz * hy
+                    my += rz * hx - rx * hz
+        out[i, 0] += fx
+        out[i, 1] += fy
+        out[i, 2] += fz
+        out[i, 3] += mx
+        out[i, 4] += my
+
+
+def no_slide(n: int) -> FloatArray:
+    """The velocity rows of a peg at rest, (n, 3)."""
+    return np.zeros((n, 3))
