@@ -64,8 +64,8 @@ def response_kernel(
 ) -> None:
     """The wall's wrench on the hole (N, 5) into ``out`` for feature rows ``f`` (N, 5), row i
     with pair i of ``table`` (TABLE_ROWS, N) or its only one; ``work`` (WORK_ROWS, N) is
-    scratch. With the rim (:mod:`.rim`) the wall starts under the chamfer, at z = -W, and a
-    slice's overlap deeper than the slice lies under that top is the face's, not the wall's."""
+    scratch. With the rim (:mod:`.rim`) the wall starts under the chamfer, at z = -W, and an
+    overlap deeper than its slice lies under that top fades out (the face's)."""
     n_a = ca.shape[0]
     per_row = table.shape[1] > 1
     # Per row: the lean frame, the slice geometry of eq. (5) and the lever's arm.
@@ -130,9 +130,12 @@ def response_kernel(
             for q in range(GL_ORDER):
                 s = mid + half_len * GL_NODES[q]
                 gap = _overlap(s, a0[i], tan_t[i], d_e, d_p, m_p[i], cos2[i], r2[i], qa, hole[i])
-                # with the rim, an overlap deeper than the slice is under the wall's top is
-                # pushed out the shorter way, up by the face (:mod:`.rim`): not the wall's
-                gap = 0.0 if rim[i] > 0.0 and gap > s_w[i] - s else gap
+                # with the rim, an overlap deeper than the slice lies under the wall's top is
+                # pushed out the shorter way, up by the face (:mod:`.rim`): the wall's share
+                # fades from all of it (overlap <= depth) to none (overlap >= 2 depth), so
+                # that the wrench stays continuous in the pose
+                fade = 2.0 * (s_w[i] - s) - gap
+                gap = (fade if fade > 0.0 else 0.0) if rim[i] > 0.0 and fade < gap else gap
                 g0 += GL_WEIGHTS[q] * gap
                 g1s += GL_WEIGHTS[q] * gap * s
             g0 = g0 * half_len if hits else 0.0

@@ -14,9 +14,11 @@ the hole's axis):
 part's face is as stiff as its wall. An element beside the bore and under the wall's top
 (ρ > R, z < -W) that lies deeper under the face than it overlaps the wall (ρ - R) is the wall's:
 the solid pushes it out the shorter way, as a convex collision does (MuJoCo's too). The wall in
-turn drops the overlaps the face carries (:func:`~.kernel.response_kernel`). So a peg standing
-0.1 mm off a 10 µm hole is held up by the face on a crescent 90 µm wide and pushed nowhere by
-the wall, and the support's moment, about 0.8 r times Fz, tips it toward the hole.
+turn leaves out the overlaps deeper than they lie under the wall's top: all of an overlap under
+its depth d counts, none over 2 d, linearly between, so that the wrench stays continuous in the
+pose (:func:`~.kernel.response_kernel`). So a peg standing 0.1 mm off a 10 µm hole is held up
+by the face on a crescent 90 µm wide, the wall pushes it only at the crescent's two tips, and
+the support's moment, about 0.8 r times Fz, tips it toward the hole.
 
 **Friction.** Coulomb on every element: μ dN against the peg's sliding velocity ``v`` [m/s] in
 {H}, in the element's tangent plane, regularised below :data:`SLIDE_EPS`:
@@ -25,8 +27,7 @@ so the caller gives v (the plant: the hand's motion over the period). A peg at r
 feels no friction there; the wall's eq. 11 by contrast always assumes the peg is pushed in.
 
 **Quadrature.** The end face in polar coordinates about its centre, ``ρ' dρ' dφ``:
-:data:`RAYS_PER_WALL_RAY` times ``n_angles`` rays, turned so that one runs to the edge's deepest
-point, each cut exactly wherever its integrand has a kink (:data:`~.kernel.GL_ORDER`
+:data:`RAYS_PER_WALL_RAY` times ``n_angles`` rays fixed in the peg's frame, each cut exactly wherever its integrand has a kink (:data:`~.kernel.GL_ORDER`
 Gauss-Legendre nodes per piece): where it crosses ρ = R and ρ = R + W, the chamfer's surface,
 the two face-or-wall boundaries (all roots of a quadratic in ρ') and z = 0, -W, -L (linear).
 The crescent above is 90 µm wide on a 5 mm face, which a uniform grid would miss; an aligned
@@ -52,10 +53,10 @@ from fbcc_ros.core.contact.kernel import GL_NODES, GL_ORDER, GL_WEIGHTS
 #: mm/s, a fiftieth of the insertion speed, above the µm-per-period drift of a held peg.
 SLIDE_EPS = 1.0e-4
 #: Rays of the end face per ray of the wall: a face contact is a crescent or a patch at an edge,
-#: far narrower than the wall's band.
+#: far narrower than the wall's band. Fixed in the peg's frame, so that the wrench is continuous
+#: in the pose (the holder's Newton iteration needs that): a tilted edge's point contact between
+#: two rays is missed until it is r (1 - cos(pi / rays)) sin(tilt) deep, 0.02 µm at 2°.
 RAYS_PER_WALL_RAY = 4
-#: Points of the edge searched for its deepest, per ray.
-_SEARCH = 4
 #: 1/√2: the 45° chamfer's normal components and its depth-to-normal factor.
 _HALF_SQRT2 = math.sqrt(0.5)
 #: 1 - 1/√2: rho's factor where the chamfer's depth equals the overlap with the wall.
@@ -116,8 +117,7 @@ def rim_kernel(
     """Add the rim's wrench on the hole (module doc) to ``out`` (N, 5), for feature rows ``f``
     (N, 5), any depth, the peg's velocity ``slide`` (N, 3) [m/s] in {H}, row i with pair i of
     ``table`` (:data:`~.kernel.TABLE_ROWS`, N) or its only one; rows whose pair has no rim
-    are left as they are. ``ca``, ``sa``: the rays' angles (:func:`~.kernel.angle_table`),
-    turned per row (module doc)."""
+    are left as they are. ``ca``, ``sa``: the rays' angles (:func:`~.kernel.angle_table`)."""
     n_a = ca.shape[0]
     per_row = table.shape[1] > 1
     cuts = np.empty(16)
@@ -142,23 +142,10 @@ def rim_kernel(
         else:
             gx, gy, gz = 0.0, 0.0, -(L + H)
         sx, sy, sz = slide[i, 0], slide[i, 1], slide[i, 2]
-        # turn the rays so that one runs to the edge's deepest point: a tilted edge first
-        # touches at a point, which rays spaced evenly from anywhere else would step over
-        deepest, phi0 = -math.inf, 0.0
-        for m in range(_SEARCH * n_a):
-            phi = m * (2.0 * math.pi / (_SEARCH * n_a))
-            cp, sp = math.cos(phi), math.sin(phi)
-            gap = _depth(px + r * (cp * ux + sp * vx), py + r * (cp * uy + sp * vy),
-                         pz + r * (cp * uz + sp * vz), R, W, L)[0]  # fmt: skip
-            if gap > deepest:
-                deepest, phi0 = gap, phi
-        turn = phi0 - math.atan2(sa[0], ca[0])
-        ct, st = math.cos(turn), math.sin(turn)
         fx = fy = fz = mx = my = 0.0
         w_ray = k / R * (2.0 * math.pi / n_a)
         for j in range(n_a):
-            cj, sj = ca[j] * ct - sa[j] * st, sa[j] * ct + ca[j] * st
-            dx, dy, dz = cj * ux + sj * vx, cj * uy + sj * vy, cj * uz + sj * vz
+            dx, dy, dz = ca[j] * ux + sa[j] * vx, ca[j] * uy + sa[j] * vy, ca[j] * uz + sa[j] * vz
             a2, b, c0 = dx * dx + dy * dy, px * dx + py * dy, px * px + py * py
             # the ray's pieces: [0, r] cut where it crosses the circles and the planes
             n_cut = 0

@@ -43,8 +43,9 @@ def test_a_peg_beside_the_hole_stands_on_the_top_face() -> None:
     fz, x_fz = _over_rays(PAIR, 1e-4, PAIR.hole_radius + press, press, 0.0)
     # 48 rays over a crescent that thins to nothing
     assert w[2] == pytest.approx(fz, rel=2e-3)
-    # the wall carries nothing: the overlap is the face's (eq. 5-13 alone would push it)
-    assert abs(w[0]) < 1e-6 * w[2]
+    # the wall presses only at the crescent's tips, where the overlap is under twice the
+    # 0.2 µm the peg has sunk into the face (eq. 5-13 alone push it with its whole overlap)
+    assert abs(w[0]) < 1e-3 * w[2]
     assert abs(PAIR.replace(rim=False).response([1e-4, 0.0, press, 0.0, 0.0])[0]) > 1.0
     # the support's moment about the hole bottom: the force on the hole is (0, 0, -Fz) at
     # the crescent's centroid, about 0.8 r out toward +x
@@ -60,6 +61,7 @@ def test_nothing_above_the_face_or_inside_the_bore() -> None:
 
 @pytest.mark.parametrize("mu", [0.0, 0.3])
 def test_a_peg_on_the_chamfer_slides_toward_the_axis(mu: float) -> None:
+    # (the bore's wall starts 0.3 mm down, under the chamfer: it is not touched here)
     width = 3e-4
     pair = PAIR.replace(chamfer=width, friction=mu)
     offset, depth = 2e-4, 1.15e-4  # its edge 5.24 mm out, 5 µm under the cone's surface
@@ -81,10 +83,11 @@ def test_the_faces_friction_opposes_the_sliding() -> None:
         w = PAIR.response(f, slide=v)
         assert w[2] == pytest.approx(still[2])
         # the peg drags the hole along its motion with mu N
-        assert w[side] == pytest.approx(math.copysign(PAIR.friction * w[2], sum(v)), rel=1e-9)
+        drag = w[side] - still[side]
+        assert drag == pytest.approx(math.copysign(PAIR.friction * w[2], sum(v)), rel=1e-9)
     # below SLIDE_EPS the friction fades with the speed
     slow = PAIR.response(f, slide=[1e-5, 0.0, 0.0])
-    assert slow[0] == pytest.approx(0.1 * PAIR.friction * still[2], rel=1e-9)
+    assert slow[0] - still[0] == pytest.approx(0.1 * PAIR.friction * still[2], rel=1e-9)
 
 
 def test_the_bottom_stops_the_peg() -> None:
@@ -97,14 +100,14 @@ def test_the_bottom_stops_the_peg() -> None:
 
 def test_a_tilted_peg_stands_on_its_low_edge() -> None:
     # leaning 5° with its top toward +x, so its low edge is at +x: 0.3 mm off, that edge
-    # stands on the face 0.2 µm deep, the rest of its end face over the hole
+    # stands on the face 2 µm deep, the rest of its end face over the hole
     tilt = 5 * DEG
-    f = [3e-4, 0.0, 2e-7 / math.cos(tilt), 0.0, tilt]
+    f = [3e-4, 0.0, 2e-6 / math.cos(tilt), 0.0, tilt]
     w = PAIR.response(f)
     assert w[2] > 0
     # the force on the hole (0, 0, -Fz) acts near the low edge, about r + 0.3 mm out
     assert w[4] / w[2] == pytest.approx(PAIR.peg_radius + 3e-4, abs=0.2e-3)
-    assert abs(w[0]) < 1e-3 * w[2]  # the wall carries nothing
+    assert abs(w[0]) < 1e-2 * w[2]  # the wall: only where the ellipse just crosses it
 
 
 def test_pairs_with_and_without_the_rim_in_one_batch() -> None:
