@@ -27,8 +27,9 @@ so the caller gives v (the plant: the hand's motion over the period). A peg at r
 feels no friction there; the wall's eq. 11 by contrast always assumes the peg is pushed in.
 
 **Quadrature.** The end face in polar coordinates about its centre, ``ρ' dρ' dφ``:
-:data:`RAYS_PER_WALL_RAY` times ``n_angles`` rays fixed in the peg's frame, each cut exactly wherever its integrand has a kink (:data:`~.kernel.GL_ORDER`
-Gauss-Legendre nodes per piece): where it crosses ρ = R and ρ = R + W, the chamfer's surface,
+:data:`RAYS_PER_WALL_RAY` times ``n_angles`` rays fixed in the peg's frame, each cut exactly
+wherever its integrand has a kink (:data:`~.kernel.GL_ORDER` Gauss-Legendre nodes per piece):
+where it crosses ρ = R and ρ = R + W, the chamfer's surface,
 the two face-or-wall boundaries (all roots of a quadratic in ρ') and z = 0, -W, -L (linear).
 The crescent above is 90 µm wide on a 5 mm face, which a uniform grid would miss; an aligned
 peg on the chamfer touches it on a sliver microns wide.
