@@ -26,7 +26,7 @@ from fbcc_ros.core.arrays import FloatArray
 GL_ORDER = 3
 GL_NODES, GL_WEIGHTS = np.polynomial.legendre.leggauss(GL_ORDER)
 #: Scratch rows :func:`response_kernel` needs per feature row (its ``work``, (WORK_ROWS, N)).
-WORK_ROWS = 19
+WORK_ROWS = 20
 #: Rows of a pair table (:class:`~fbcc_ros.core.contact.model.ContactBatch`): R, r, mu, k, L, H,
 #: peg_length, chamfer W, rim (1.0: the hole has its top face and bottom, :mod:`.rim`).
 TABLE_ROWS = 9
@@ -64,15 +64,16 @@ def response_kernel(
 ) -> None:
     """The wall's wrench on the hole (N, 5) into ``out`` for feature rows ``f`` (N, 5), row i
     with pair i of ``table`` (TABLE_ROWS, N) or its only one; ``work`` (WORK_ROWS, N) is
-    scratch. With the rim (:mod:`.rim`) the wall starts under the chamfer, at z = -W, and an
-    overlap deeper than its slice lies under that top fades out (the face's)."""
+    scratch. With the rim (:mod:`.rim`) the wall starts under the chamfer, at z = -W, an overlap
+    deeper than its slice lies under that top fades out (the face's), and the end face cuts the
+    slices (a tilted peg's lowest 2 r sin(theta) are not whole ellipses)."""
     n_a = ca.shape[0]
     per_row = table.shape[1] > 1
     # Per row: the lean frame, the slice geometry of eq. (5) and the lever's arm.
     e_x, e_y, m_p, a0, tan_t, sin_t = work[0], work[1], work[2], work[3], work[4], work[5]
     cos2, s_u, s_lo, hole, r2, arm = work[6], work[7], work[8], work[9], work[10], work[11]
     sum_g0, sum_c, sum_s, lev_c, lev_s = work[12], work[13], work[14], work[15], work[16]
-    s_w, rim = work[17], work[18]
+    s_w, rim, low_e = work[17], work[18], work[19]
     for i in range(f.shape[0]):
         c = i if per_row else 0  # the pair of this row
         R, r, mu = table[0, c], table[1, c], table[2, c]
@@ -96,6 +97,8 @@ def response_kernel(
         s_lo[i] = max(0.0, s_u[i] - L)  # no wall below the hole's depth L
         rim[i] = table[8, c]
         s_w[i] = s_u[i] - table[7, c]  # the wall's top, under the chamfer (W = 0 without rim)
+        # the end face's lowest point along e, at s = 0: the slice ellipse's far end there
+        low_e[i] = a0[i] + r / math.sqrt(cos2[i])
         hole[i], r2[i] = R, r * r
         # Height of the equivalent acting point z_A in {H}: on the axis, peg_length from the
         # tip centre (which eq. 5 puts at s_tip = r sin(theta) cos(theta)), or the hole bottom.
@@ -121,6 +124,11 @@ def response_kernel(
             half = math.sqrt(across if hits else 0.0) / sin_t[i]  # sqrt(across) / cos / tan
             centre = (hole[i] * d_e - a0[i]) / tan_t[i]
             lo, hi = centre - half, centre + half
+            # with the rim, the end face cuts the slices: the wall point lies above it only
+            # from s = (low_e - R d_e) tan(theta) up (eq. 5's slices are whole ellipses,
+            # which at the entry puts a tilted peg's missing corner against the wall)
+            cut = (low_e[i] - hole[i] * d_e) * tan_t[i] if rim[i] > 0.0 else s_lo[i]
+            lo = lo if lo > cut else cut
             s1 = lo if lo > s_lo[i] else s_lo[i]
             s2 = hi if hi < s_w[i] else s_w[i]
             hits = hits & (s2 > s1)  # else the ray misses the peg

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from fbcc_ros.core.contact.model import ContactBatch, PegHole
+from fbcc_ros.core.contact.rim import FACE_DEPTH
 from fbcc_ros.core.errors import ConfigError, InputError
 
 DEG = math.pi / 180
@@ -31,7 +32,7 @@ def _over_rays(pair: PegHole, offset: float, start: float, c0: float, c1: float,
 
     per_ray = c0 * power(1) + c1 * power(2)  # ∫ g rho drho
     per_ray_x = (c0 * power(2) + c1 * power(3)) * np.cos(alpha)  # ∫ g rho cos(alpha) rho drho
-    w = pair.stiffness / pair.hole_radius * (2 * math.pi / n)
+    w = pair.stiffness / FACE_DEPTH * (2 * math.pi / n)
     return float(w * per_ray.sum()), float(w * per_ray_x.sum())
 
 
@@ -94,7 +95,7 @@ def test_the_bottom_stops_the_peg() -> None:
     press = 1e-7
     w = PAIR.response([0.0, 0.0, PAIR.hole_depth + press, 0.0, 0.0])
     area = math.pi * PAIR.peg_radius**2
-    assert w[2] == pytest.approx(PAIR.stiffness / PAIR.hole_radius * press * area, rel=1e-6)
+    assert w[2] == pytest.approx(PAIR.stiffness / FACE_DEPTH * press * area, rel=1e-6)
     assert np.abs(w[[0, 1, 3, 4]]).max() < 1e-9 * w[2]
 
 
@@ -118,12 +119,19 @@ def test_pairs_with_and_without_the_rim_in_one_batch() -> None:
     np.testing.assert_array_equal(both[1], PAIR.replace(rim=False).response(rows[1]))
 
 
-def test_without_the_rim_the_wall_is_eq_5_13_unchanged() -> None:
-    # the wall's interval and cut with rim=False are the paper's: a deep tilted peg gives the
-    # same wrench with and without the rim (nothing of it touches the face or the bottom)
-    f = [5e-5, -3e-5, 8e-3, 1 * DEG, -1.5 * DEG]
-    np.testing.assert_allclose(PAIR.response(f), PAIR.replace(rim=False).response(f),
-                               rtol=1e-12, atol=1e-12)  # fmt: skip
+def test_the_end_face_cuts_eq_5s_slices() -> None:
+    # an aligned peg deep in the bore: the same wall as eq. 5-13
+    f = [5e-5, 0.0, 5e-3, 0.0, 0.0]
+    np.testing.assert_array_equal(PAIR.response(f), PAIR.replace(rim=False).response(f))
+    # tilted 2° with its top toward +x, its end face's low corner is at +x: pressed against
+    # +x it touches the wall as eq. 5's whole ellipses say ...
+    f = [1e-4, 0.0, 5e-3, 0.0, 2 * DEG]
+    np.testing.assert_array_equal(PAIR.response(f), PAIR.replace(rim=False).response(f))
+    # ... pressed against -x, with its high corner, whose lowest 2 r sin(2°) = 0.35 mm eq. 5
+    # fills with material that is not there: less force
+    f = [-5e-5, 0.0, 5e-3, 0.0, 2 * DEG]
+    cut, whole = PAIR.response(f), PAIR.replace(rim=False).response(f)
+    assert 0.7 * abs(whole[0]) < abs(cut[0]) < 0.95 * abs(whole[0])
 
 
 def test_bad_rim_settings_are_refused() -> None:
