@@ -121,14 +121,14 @@ class ProbedContact:
     ``truth`` (N, 4) [N/m, N/m, N/rad, N/rad] hold one entry per probe."""
 
     def __init__(self, inner: Contact, nominal: PegHole, pairs: Sequence[PegHole],
-                 holder: Holder | None, stride: int = STRIDE) -> None:  # fmt: skip
+                 holder: Holder | None, dt: float, stride: int = STRIDE) -> None:  # fmt: skip
         if stride < 1:
             raise ConfigError("stride", stride, "an integer >= 1 (periods)")
         self.inner, self.stride = inner, stride
         self.unconverged = inner.unconverged
         self._displaced = (mujoco_displaced(inner, nominal) if isinstance(inner, MujocoContact)
                            else model_displaced(ModelContact(len(inner.unconverged), pairs,
-                                                             holder), nominal))  # fmt: skip
+                                                             holder, dt), nominal))  # fmt: skip
         self.periods: list[int] = []
         self.hands: list[FloatArray] = []
         self.truth: list[FloatArray] = []
@@ -204,7 +204,7 @@ def run_probed(sc: Scenario, parts: list[PegHole], deviations: FloatArray, seed:
     def make_plant(s: Scenario, robot: LaggingRobot, dev: FloatArray,
                    pairs: Sequence[PegHole]) -> Plant:  # fmt: skip
         made["contact"] = ProbedContact(scenario_contact(s, len(dev), pairs), s.geometry, pairs,
-                                        s.holder, stride)  # fmt: skip
+                                        s.holder, 1.0 / s.rate_hz, stride)  # fmt: skip
         return Plant(robot, dev, s.geometry, pairs, made["contact"])
 
     def wrap(law: Law) -> EstimateLog:

@@ -41,8 +41,9 @@ from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim.holder import AXIAL
 from fbcc_ros.core.sim.plants.mujoco import MujocoContact
-from fbcc_ros.core.sim.plants.mujoco_scene import AXIAL, Contact, Part
+from fbcc_ros.core.sim.plants.mujoco_scene import Contact, Part
 
 SCENARIO = "config/scenarios/robust_interference.yaml"
 #: The hand's speed [m/s] and the control period [s].

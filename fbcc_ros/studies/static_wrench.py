@@ -87,7 +87,7 @@ class Row:
 
 def _plant(name: str, robot: LaggingRobot, n: int, pair: PegHole, holder: Holder | None,
            dt: float) -> Plant:  # fmt: skip
-    contact: Contact = (ModelContact(n, [pair], holder) if name == "model"
+    contact: Contact = (ModelContact(n, [pair], holder, dt) if name == "model"
                         else MujocoContact(n, [pair], holder, dt))  # fmt: skip
     return Plant(robot, np.zeros((n, 5)), pair, [pair], contact)
 

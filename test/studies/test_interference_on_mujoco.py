@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from fbcc_ros.core.errors import ConfigError
-from fbcc_ros.core.sim.plants.mujoco_scene import AXIAL, Contact, Part
+from fbcc_ros.core.sim.holder import AXIAL
+from fbcc_ros.core.sim.plants.mujoco_scene import Contact, Part
 from fbcc_ros.studies.interference_on_mujoco import (
     REFERENCE_K,
     changes_table,

@@ -121,11 +121,14 @@ def rim_kernel(
     ca: FloatArray,
     sa: FloatArray,
     out: FloatArray,
+    stick: bool = False,
 ) -> None:
     """Add the rim's wrench on the hole (module doc) to ``out`` (N, 5), for feature rows ``f``
     (N, 5), any depth, the peg's velocity ``slide`` (N, 3) [m/s] in {H}, row i with pair i of
     ``table`` (:data:`~.kernel.TABLE_ROWS`, N) or its only one; rows whose pair has no rim
-    are left as they are. ``ca``, ``sa``: the rays' angles (:func:`~.kernel.angle_table`)."""
+    are left as they are. ``ca``, ``sa``: the rays' angles (:func:`~.kernel.angle_table`).
+    ``stick``: the friction proportional to the velocity at any speed (the regularised law's
+    slope, unsaturated: a peg that sticks; the holder's first pass)."""
     n_a = ca.shape[0]
     per_row = table.shape[1] > 1
     cuts = np.empty(16)
@@ -195,7 +198,7 @@ def rim_kernel(
                     vn = sx * nx + sy * ny + sz * nz
                     tx, ty, tz = sx - vn * nx, sy - vn * ny, sz - vn * nz
                     speed = math.sqrt(tx * tx + ty * ty + tz * tz)
-                    fric = mu * dn / (speed if speed > SLIDE_EPS else SLIDE_EPS)
+                    fric = mu * dn / (speed if speed > SLIDE_EPS and not stick else SLIDE_EPS)
                     # the force on the hole: minus the normal push and the friction on the peg
                     hx = -dn * nx + fric * tx
                     hy = -dn * ny + fric * ty

@@ -14,9 +14,11 @@ sensor and arm sit above G and their compliances are referred to it):
 * ``lateral`` [N/m]: the translation ``u = (u_x, u_y)`` of G along x and y of {H};
 * ``angular`` [N·m/rad]: the rotation ``phi = (phi_x, phi_y)`` of the peg about x and y through G
   (right-hand, the same sense as theta_x, theta_y; DESIGN §3);
-* axially (depth l) and about z the holder stays rigid: the insertion is position controlled and
-  the depth is the commanded one. No coupling between translation and rotation at G (a remote
-  centre compliance device, whose centre sits near the tip, is a different model).
+* ``axial`` [N/m]: the peg's depth. Only a hole with its rim (``PegHole.rim``: its top face,
+  chamfer and bottom) pushes the peg along its axis; against the paper's wall alone the depth is
+  the commanded one (the insertion is position controlled). About z the holder stays rigid. No
+  coupling between translation and rotation at G (a remote centre compliance device, whose
+  centre sits near the tip, is a different model).
 
 **Equilibrium.** The response ``W = (Fx, Fy, Fz, Mx, My)`` is the wrench the peg exerts on the hole
 with moments at the contact's acting point A; the hole pushes back on the peg with ``-W``. The
@@ -103,6 +105,12 @@ from fbcc_ros.core.errors import ConfigError, InputError
 Response = Callable[[FloatArray], FloatArray]
 BoolArray = NDArray[np.bool_]
 
+#: A grip's stiffness along the peg's axis [N/m]: an LBR in position control and a parallel
+#: gripper's pads referred to the grip point, an estimate of the same order as the lateral row of
+#: the table above (the rim's face pushes against it; MuJoCo's grip uses it too).
+AXIAL = 1.0e6
+
+
 def _stiffness(field: str, value: object) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)):
         raise ConfigError(field, value, "a finite stiffness > 0 (SI units)")
@@ -120,18 +128,22 @@ class Holder:
         lateral: Stiffness of the grip point along x and y of {H} [N/m], finite and > 0.
         angular: Stiffness of the peg's tilt about x and y through the grip point [N·m/rad],
             finite and > 0.
+        axial: Stiffness along the peg's axis [N/m], finite and > 0 (default :data:`AXIAL`).
+            Only a hole with its rim (``PegHole.rim``) pushes the peg along its axis: against
+            the paper's wall alone the depth stays the commanded one.
 
-    Axially (depth) and about z the holder is rigid: the insertion is position controlled.
-    :meth:`rigid` (or ``None`` wherever a holder is taken) is the rigid holder of the original
-    plant.
+    About z the holder is rigid. :meth:`rigid` (or ``None`` wherever a holder is taken) is the
+    rigid holder of the original plant.
     """
 
     lateral: float
     angular: float
+    axial: float = AXIAL
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "lateral", _stiffness("holder.lateral", self.lateral))
         object.__setattr__(self, "angular", _stiffness("holder.angular", self.angular))
+        object.__setattr__(self, "axial", _stiffness("holder.axial", self.axial))
 
     @classmethod
     def rigid(cls) -> Holder:
@@ -139,6 +151,7 @@ class Holder:
         h = object.__new__(cls)
         object.__setattr__(h, "lateral", math.inf)
         object.__setattr__(h, "angular", math.inf)
+        object.__setattr__(h, "axial", math.inf)
         return h
 
     @property
@@ -154,8 +167,14 @@ class Holder:
         if not soft:
             return cls.rigid()
         return cls(
-            1.0 / sum(1.0 / p.lateral for p in soft), 1.0 / sum(1.0 / p.angular for p in soft)
+            1.0 / sum(1.0 / p.lateral for p in soft),
+            1.0 / sum(1.0 / p.angular for p in soft),
+            1.0 / sum(1.0 / p.axial for p in soft),
         )
+
+    def scaled(self, factor: float) -> Holder:
+        """Every stiffness times ``factor``."""
+        return Holder(self.lateral * factor, self.angular * factor, self.axial * factor)
 
 
 #: ATI Gamma F/T sensor (datasheet calculated stiffness, as recalled: Kx = Ky, Ktx = Kty).

@@ -1,8 +1,9 @@
 """The compiled damped Newton iteration of :class:`fbcc_ros.core.sim.holder_solver.HolderSolver`,
 one row at a time (the solver's module doc describes the steps; ``HolderSolver._batched`` runs
-the same steps in numpy for any response callable): numpy's per-call overhead over 4x4 blocks
-of a 128-row batch would cost several times the contact kernel itself. Residuals are scaled by
-the tolerances, so "converged" means ``|residual| <= 1`` in every coordinate."""
+the same steps in numpy for any response callable): numpy's per-call overhead over 4x4 (5x5
+with the rim) blocks of a 128-row batch would cost several times the contact kernel itself.
+Residuals are scaled by the tolerances, so "converged" means ``|residual| <= 1`` in every
+coordinate."""
 
 from __future__ import annotations
 
@@ -14,11 +15,20 @@ from numpy.typing import NDArray
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact import kernel as contact_kernel
+from fbcc_ros.core.contact import rim as contact_rim
 from fbcc_ros.core.sim.holder import BoolArray
 
-#: Forward-difference steps of the Jacobian: u_x, u_y [m], phi_x, phi_y [rad]. Small against the
-#: microns the peg moves, large against rounding (3e9 N/m × 1e-9 m = 3 N vs ~1e-8 N noise).
-FD_STEP = np.array([1e-9, 1e-9, 1e-7, 1e-7])
+#: Forward-difference steps of the Jacobian: u_x, u_y [m], phi_x, phi_y [rad], and u_l [m] where
+#: the pair has the rim. Small against the microns the peg moves, large against rounding (3e9
+#: N/m × 1e-9 m = 3 N vs ~1e-8 N noise).
+FD_STEP = np.array([1e-9, 1e-9, 1e-7, 1e-7, 1e-9])
+#: The largest Newton step of a row with the rim, per coordinate: u_x, u_y [m], phi_x, phi_y
+#: [rad], u_l [m]. A face contact's equilibria lie microns apart (on the face, or tipped into
+#: the hole); a longer step from a Jacobian taken on one can land on another.
+TRUST = np.array([1e-6, 1e-6, 2e-5, 2e-5, 1e-6])
+#: Coordinates of a row: the lateral and angular four, and the depth's where the pair has the
+#: rim (the face pushes along the axis; the paper's wall alone leaves the depth rigid).
+N_LATERAL, N_AXIAL = 4, 5
 #: Sufficient decrease of the squared scaled residual for a step to be accepted (Armijo).
 ARMIJO = 1e-4
 #: A step that leaves more than this fraction of the squared residual asks for a fresh Jacobian.
@@ -27,20 +37,49 @@ SLOW = 0.25
 T_MIN = 1e-10
 
 
+@numba.njit(cache=True, inline="always")  # type: ignore[misc]
+def _sin_cos_tilt(theta_x: float, theta_y: float) -> tuple[float, float]:
+    """sin and cos of the total tilt of the projected tilts (tan = |(tan thy, tan thx)|)."""
+    tan_t = math.hypot(math.tan(theta_y), math.tan(theta_x))
+    cos_t = 1.0 / math.sqrt(1.0 + tan_t * tan_t)
+    return tan_t * cos_t, cos_t
+
+
 @numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
 def _row_residual(
     xr: FloatArray, h: float, q: FloatArray, tab: FloatArray, peg_top: bool,
-    ca: FloatArray, sa: FloatArray, work: FloatArray,
-    k: FloatArray, tol: FloatArray, fbuf: FloatArray, wbuf: FloatArray, r: FloatArray,
+    ca: FloatArray, sa: FloatArray, rim_ca: FloatArray, rim_sa: FloatArray, last: FloatArray,
+    slide: FloatArray, inv_dt: float, vbuf: FloatArray, work: FloatArray, k: FloatArray,
+    tol: FloatArray, fbuf: FloatArray, wbuf: FloatArray, r: FloatArray, n_q: int,
 ) -> float:  # fmt: skip
-    """Features of deflection q into fbuf[0], wrench into wbuf[0], scaled residual into r;
-    returns the squared residual."""
+    """Features of deflection q into fbuf[0], wrench into wbuf[0], scaled residual into r (its
+    first ``n_q`` coordinates); returns the squared residual."""
     fbuf[0, 0] = xr[0] + q[0] - h * q[3]
     fbuf[0, 1] = xr[1] + q[1] + h * q[2]
     fbuf[0, 2] = xr[2]
     fbuf[0, 3] = xr[3] + q[2]
     fbuf[0, 4] = xr[4] + q[3]
+    if n_q == N_AXIAL:
+        # turned about its grip, the peg's tip centre keeps its depth (h phi^2 / 2 neglected,
+        # as laterally) and the depth l of its end face's lowest point follows the tilt
+        # (:mod:`~fbcc_ros.core.contact.features`): the face feels the tip, not l
+        rad = tab[1, 0]
+        s_r, c_r = _sin_cos_tilt(xr[3], xr[4])
+        s_n, c_n = _sin_cos_tilt(fbuf[0, 3], fbuf[0, 4])
+        fbuf[0, 2] = (xr[2] * c_r - rad * s_r + rad * s_n) / c_n + q[4]
     contact_kernel.response_kernel(fbuf, tab, peg_top, ca, sa, wbuf, work)
+    if n_q == N_AXIAL:
+        # the face's friction: sticking, against the peg's own motion since the last period
+        # (the regularised law's slope); sliding, mu N along a direction fixed for the solve
+        if slide[0] == 0.0 and slide[1] == 0.0 and slide[2] == 0.0:
+            vbuf[0, 0] = (fbuf[0, 0] - last[0]) * inv_dt
+            vbuf[0, 1] = (fbuf[0, 1] - last[1]) * inv_dt
+            vbuf[0, 2] = (last[2] - fbuf[0, 2]) * inv_dt
+            contact_rim.rim_kernel(fbuf, vbuf, tab, peg_top, rim_ca, rim_sa, wbuf, True)
+        else:
+            for m in range(3):
+                vbuf[0, m] = slide[m]
+            contact_rim.rim_kernel(fbuf, vbuf, tab, peg_top, rim_ca, rim_sa, wbuf, False)
     fx, fy, fz, mx, my = wbuf[0, 0], wbuf[0, 1], wbuf[0, 2], wbuf[0, 3], wbuf[0, 4]
     if not peg_top:  # moments from (0, 0, -(L + H)) to the grip point (module doc)
         pl, rad, depth = tab[6, 0], tab[1, 0], tab[4, 0] + tab[5, 0]
@@ -56,7 +95,12 @@ def _row_residual(
     r[1] = (k[1] * q[1] + fy) / tol[1]
     r[2] = (k[2] * q[2] + mx) / tol[2]
     r[3] = (k[3] * q[3] + my) / tol[3]
-    return float(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3])
+    if n_q == N_AXIAL:  # the face pushes the peg out, the axial spring back in: k u_l + Fz = 0
+        r[4] = (k[4] * q[4] + fz) / tol[4]
+    merit = r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3]
+    if n_q == N_AXIAL:
+        merit += r[4] * r[4]
+    return float(merit)
 
 
 @numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
@@ -74,44 +118,53 @@ def _is_off_wall(q: FloatArray, wbuf: FloatArray) -> bool:
     wbuf[0]): no equilibrium, see :mod:`fbcc_ros.core.sim.holder_solver`."""
     if not _touches_nothing(wbuf):
         return False
-    return bool(q[0] != 0.0 or q[1] != 0.0 or q[2] != 0.0 or q[3] != 0.0)
+    return bool(q[0] != 0.0 or q[1] != 0.0 or q[2] != 0.0 or q[3] != 0.0 or q[4] != 0.0)
 
 
 @numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
-def _solve4(a_in: FloatArray, b: FloatArray, a: FloatArray, out: FloatArray) -> None:
-    """out = a_in^-1 b by Gaussian elimination with partial pivoting (a: 4x4 scratch); a
-    singular or non-finite system gives out = b."""
-    for i in range(4):
+def _converged(r: FloatArray, n_q: int) -> bool:
+    """Whether every scaled residual of a row's n_q coordinates is within 1."""
+    for m in range(n_q):
+        if not abs(r[m]) <= 1.0:
+            return False
+    return True
+
+
+@numba.njit(cache=True, error_model="numpy")  # type: ignore[misc]
+def _solve(a_in: FloatArray, b: FloatArray, a: FloatArray, out: FloatArray, n: int) -> None:
+    """out = a_in^-1 b on the first n coordinates by Gaussian elimination with partial
+    pivoting (a: scratch as large); a singular or non-finite system gives out = b."""
+    for i in range(n):
         out[i] = b[i]
-        for j in range(4):
+        for j in range(n):
             a[i, j] = a_in[i, j]
-    for c in range(4):
+    for c in range(n):
         p = c
-        for i in range(c + 1, 4):
+        for i in range(c + 1, n):
             if abs(a[i, c]) > abs(a[p, c]):
                 p = i
         piv = a[p, c]
         if not (abs(piv) > 1e-300 and math.isfinite(piv)):
-            for i in range(4):
+            for i in range(n):
                 out[i] = b[i]
             return
         if p != c:
-            for j in range(4):
+            for j in range(n):
                 a[c, j], a[p, j] = a[p, j], a[c, j]
             out[c], out[p] = out[p], out[c]
-        for i in range(c + 1, 4):
+        for i in range(c + 1, n):
             f = a[i, c] / piv
-            for j in range(c, 4):
+            for j in range(c, n):
                 a[i, j] -= f * a[c, j]
             out[i] -= f * out[c]
-    for c in range(3, -1, -1):
+    for c in range(n - 1, -1, -1):
         s = out[c]
-        for j in range(c + 1, 4):
+        for j in range(c + 1, n):
             s -= a[c, j] * out[j]
         out[c] = s / a[c, c]
-    for i in range(4):
+    for i in range(n):
         if not math.isfinite(out[i]):
-            for m in range(4):
+            for m in range(n):
                 out[m] = b[m]
             return
 
@@ -120,6 +173,7 @@ def _solve4(a_in: FloatArray, b: FloatArray, a: FloatArray, out: FloatArray) -> 
 def solve_rows(
     xr: FloatArray, h: FloatArray, q: FloatArray, back: FloatArray, jac: FloatArray,
     have: BoolArray, table: FloatArray, peg_top: bool, ca: FloatArray, sa: FloatArray,
+    rim_ca: FloatArray, rim_sa: FloatArray, last: FloatArray, inv_dt: float, slide: FloatArray,
     k: FloatArray, tol: FloatArray, max_iter: int,
     fd: FloatArray, x_out: FloatArray, w_out: FloatArray, conv: BoolArray,
     evals: NDArray[np.int64], iters: NDArray[np.int64],
@@ -129,74 +183,83 @@ def solve_rows(
     work = np.empty((contact_kernel.WORK_ROWS, 1))  # the contact kernel's scratch
     fbuf, wbuf = np.empty((1, 5)), np.empty((1, 5))
     fbuf_t, wbuf_t = np.empty((1, 5)), np.empty((1, 5))
-    r, rt, qt, s, neg = np.empty(4), np.empty(4), np.empty(4), np.empty(4), np.empty(4)
-    dz, dr, jdz, scratch = np.empty(4), np.empty(4), np.empty(4), np.empty((4, 4))
+    vbuf = np.zeros((1, 3))  # the peg's sliding velocity, for the rim's friction
+    r, rt, qt, s, neg = (np.zeros(N_AXIAL), np.zeros(N_AXIAL), np.zeros(N_AXIAL),
+                         np.zeros(N_AXIAL), np.zeros(N_AXIAL))  # fmt: skip
+    dz, dr, jdz = np.empty(N_AXIAL), np.empty(N_AXIAL), np.empty(N_AXIAL)
+    scratch = np.empty((N_AXIAL, N_AXIAL))
     for i in range(n):
         c = i if table.shape[1] > 1 else 0
         for m in range(contact_kernel.TABLE_ROWS):
             tab[m, 0] = table[m, c]
-        qi, ji = q[i], jac[i]
-        merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, work, k, tol,
-                              fbuf, wbuf, r)  # fmt: skip
+        qi, ji, li, si = q[i], jac[i], last[i], slide[i]
+        n_q = N_AXIAL if tab[8, 0] > 0.0 else N_LATERAL
+        merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, rim_ca, rim_sa, li, si,
+                              inv_dt, vbuf, work, k, tol, fbuf, wbuf, r, n_q)  # fmt: skip
         n_eval = 1
         for fallback in range(2):  # off the wall: start from the last solution, then from 0
             if not _is_off_wall(qi, wbuf):
                 break
-            for m in range(4):
+            for m in range(n_q):
                 qi[m] = back[i, m] if fallback == 0 else 0.0
-            merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, work, k, tol,
-                                  fbuf, wbuf, r)  # fmt: skip
+            merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, rim_ca, rim_sa, li, si,
+                                  inv_dt, vbuf, work, k, tol, fbuf, wbuf, r, n_q)  # fmt: skip
             n_eval += 1
         it, t, fresh = 0, 1.0, False
-        done = max(abs(r[0]), abs(r[1]), abs(r[2]), abs(r[3])) <= 1.0
+        done = _converged(r, n_q)
         while not done and it < max_iter:
             it += 1
             if not have[i]:  # forward differences in scaled units
-                for j in range(4):
-                    for m in range(4):
+                for j in range(n_q):
+                    for m in range(n_q):
                         qt[m] = qi[m]
                     qt[j] += fd[j]
-                    _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, work, k, tol,
-                                  fbuf_t, wbuf_t, rt)  # fmt: skip
-                    for m in range(4):
+                    _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, rim_ca, rim_sa, li, si,
+                                  inv_dt, vbuf, work, k, tol, fbuf_t, wbuf_t, rt, n_q)  # fmt: skip
+                    for m in range(n_q):
                         ji[m, j] = (rt[m] - r[m]) / (fd[j] * k[j] / tol[j])
                 n_eval += 4
                 have[i] = fresh = True
-            for m in range(4):
+            for m in range(n_q):
                 neg[m] = -r[m]
-            _solve4(ji, neg, scratch, s)
-            for m in range(4):
-                qt[m] = qi[m] + t * s[m] * tol[m] / k[m]
-            mt = _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, work, k, tol,
-                               fbuf_t, wbuf_t, rt)  # fmt: skip
+            _solve(ji, neg, scratch, s, n_q)
+            reach = 1.0
+            if n_q == N_AXIAL:  # a trust region: the peg moves on along the equilibrium it is on
+                for m in range(n_q):
+                    reach = max(reach, abs(s[m] * tol[m] / k[m]) / TRUST[m])
+            for m in range(n_q):
+                qt[m] = qi[m] + t * s[m] * tol[m] / k[m] / reach
+            mt = _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, rim_ca, rim_sa, li, si,
+                               inv_dt, vbuf, work, k, tol, fbuf_t, wbuf_t, rt, n_q)  # fmt: skip
             n_eval += 1
             if _is_off_wall(qt, wbuf_t):  # no equilibrium there: no deflection, or back
-                for m in range(4):
+                for m in range(n_q):
                     qt[m] = 0.0
-                mt = _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, work, k, tol,
-                                   fbuf_t, wbuf_t, rt)  # fmt: skip
+                mt = _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, rim_ca, rim_sa, li, si,
+                                   inv_dt, vbuf, work, k, tol, fbuf_t, wbuf_t, rt,
+                                   n_q)  # fmt: skip
                 n_eval += 1
                 if not _touches_nothing(wbuf_t):
                     mt = math.inf
             if mt < (1.0 - ARMIJO * t) * merit:  # False for NaN
                 den = 0.0
-                for m in range(4):
+                for m in range(n_q):
                     dz[m] = (qt[m] - qi[m]) * k[m] / tol[m]
                     dr[m] = rt[m] - r[m]
                     den += dz[m] * dz[m]
                 if den > 0.0:  # Broyden's rank-one update
-                    for m in range(4):
+                    for m in range(n_q):
                         jdz[m] = 0.0
-                        for j in range(4):
+                        for j in range(n_q):
                             jdz[m] += ji[m, j] * dz[j]
-                    for m in range(4):
-                        for j in range(4):
+                    for m in range(n_q):
+                        for j in range(n_q):
                             v = ji[m, j] + (dr[m] - jdz[m]) * dz[j] / den
                             if math.isfinite(v):
                                 ji[m, j] = v
                 if mt > SLOW * merit:
                     have[i] = False
-                for m in range(4):
+                for m in range(n_q):
                     qi[m], r[m] = qt[m], rt[m]
                 for m in range(5):
                     fbuf[0, m], wbuf[0, m] = fbuf_t[0, m], wbuf_t[0, m]
@@ -207,7 +270,7 @@ def solve_rows(
                     break
             else:  # a stale Jacobian's: refresh it
                 have[i] = False
-            done = max(abs(r[0]), abs(r[1]), abs(r[2]), abs(r[3])) <= 1.0
+            done = _converged(r, n_q)
         for m in range(5):
             x_out[i, m], w_out[i, m] = fbuf[0, m], wbuf[0, m]
         conv[i], evals[i], iters[i] = done, n_eval, it

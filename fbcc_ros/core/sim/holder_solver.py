@@ -3,9 +3,9 @@
 
 **Solver.** The contact is ~1e7-1e9 N/m stiff (or more) against a holder of 1e4-1e7 N/m, so a
 fixed-point iteration ``u <- -F(u)/k`` diverges. :class:`HolderSolver` runs a damped Newton
-iteration per row on the four coordinates (u_x, u_y, phi_x, phi_y), in units scaled by the
-tolerances (so that the holder's spring is the identity and "converged" means
-``|residual| <= 1`` in every coordinate):
+iteration per row on the four coordinates (u_x, u_y, phi_x, phi_y), and the axial u_l where the
+pair has the rim, in units scaled by the tolerances (so that the holder's spring is the identity
+and "converged" means ``|residual| <= 1`` in every coordinate):
 
 * the Jacobian comes from forward differences (4 extra evaluations of the row), is kept between
   steps and refined by Broyden updates, and is recomputed only where a step fails to cut the
@@ -22,6 +22,13 @@ tolerances (so that the holder's spring is the identity and "converged" means
   Newton step from deep in a stiff wall can land there with a smaller residual, a peg tilted
   by degrees in its grasp with no force on it): it is replaced by no deflection, the exact
   solution if that touches nothing, and refused otherwise (the step is halved toward the wall);
+* where the pair has the rim, the peg turned about its grip keeps its tip centre's depth (its
+  features' l, the end face's lowest point, follows the tilt); each Newton step is bounded
+  (:data:`~.holder_kernel.TRUST`: a face contact's equilibria, on the face or tipped into the
+  hole, lie microns apart, and a longer step lands on another); and the face's friction takes
+  two passes, a return mapping: every peg sticks (the regularised law's slope), then a peg that
+  moved sideways faster than :data:`~fbcc_ros.core.contact.rim.SLIDE_EPS` slides, mu N along
+  that motion, solved again;
 * rows that do not converge within ``max_iter`` iterations keep their best point and are
   flagged in ``converged``; nothing raises inside the iteration. At the edge of a stiff contact
   against a soft grasp that happens often, and the best point can be off balance by newtons
@@ -51,6 +58,7 @@ from numpy.typing import ArrayLike
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact import kernel as contact_kernel
 from fbcc_ros.core.contact.model import ContactBatch, as_rows
+from fbcc_ros.core.contact.rim import RAYS_PER_WALL_RAY, SLIDE_EPS
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.sim import holder_batched, holder_kernel
 from fbcc_ros.core.sim.holder import (
@@ -125,11 +133,12 @@ class HolderSolver:
         self.max_iter = max_iter
         self.extrapolate = extrapolate
         k = self.holder
-        self._tol = np.array([force_tol, force_tol, moment_tol, moment_tol])
-        self._k = np.array([k.lateral, k.lateral, k.angular, k.angular])
-        self._q: FloatArray | None = None  # (N, 4) u_x, u_y, phi_x, phi_y of the last step
+        self._tol = np.array([force_tol, force_tol, moment_tol, moment_tol, force_tol])
+        self._k = np.array([k.lateral, k.lateral, k.angular, k.angular, k.axial])
+        # (N, 5) u_x, u_y, phi_x, phi_y, u_l of the last step (u_l only where the rim is)
+        self._q: FloatArray | None = None
         self._q_prev: FloatArray | None = None  # and of the step before
-        self._jac: FloatArray | None = None  # (N, 4, 4) in scaled units
+        self._jac: FloatArray | None = None  # (N, 5, 5) in scaled units
         self._have: BoolArray | None = None  # whether a row's Jacobian is usable
         self.evaluations = 0
         self.iterations = 0
@@ -144,6 +153,8 @@ class HolderSolver:
         response: Response | ContactBatch,
         *,
         delta0: ArrayLike | None = None,
+        last: FloatArray | None = None,
+        dt: float = 0.0,
     ) -> Equilibrium:
         """Solve one equilibrium.
 
@@ -153,8 +164,9 @@ class HolderSolver:
                 (the simulator clamps them at 0).
             response: The contact: a ContactBatch, its ``response``, or any callable
                 ``features (N, 5) -> wrench (N, 5)`` (then ``grip`` must be given).
-            delta0: An initial feature delta (N, 5) to start from instead of the warm start
-                (its l column is ignored).
+            delta0: An initial feature delta (N, 5) to start from instead of the warm start.
+            last: The pegs' true features a period ``dt`` [s] ago (N, 5), for the rim's friction
+                against the peg's own sliding (None: at rest; :mod:`fbcc_ros.core.contact.rim`).
 
         Returns:
             :class:`Equilibrium` (features, wrench, delta, converged), rows as given.
@@ -164,12 +176,9 @@ class HolderSolver:
         contact = _contact_of(response)
         if contact is not None and len(contact) not in (1, n):
             raise InputError("x_robot", f"{n} rows", f"{len(contact)} rows, one per pair")
-        if contact is not None and contact.has_rim:
-            # the face pushes the peg along its axis, where this holder is rigid
-            raise ConfigError("geometry.rim", True, "false with a holder: the holder has no "
-                              "axial spring for the top face to push against yet")  # fmt: skip
         if self.holder.is_rigid:
-            w = contact.response(xr) if contact is not None else holder_batched.call(response, xr)  # type: ignore[arg-type]
+            w = (contact.response(xr, _velocity(xr, last, dt)) if contact is not None
+                 else holder_batched.call(response, xr))  # type: ignore[arg-type]  # fmt: skip
             self.evaluations, self.iterations = n, 0
             out = Equilibrium(xr.copy(), w, np.zeros_like(xr), np.ones(n, dtype=bool))
             return _squeeze(out) if single else out
@@ -180,9 +189,9 @@ class HolderSolver:
         h = pl - 0.5 * xr[:, 2]  # from the feature point up to the grip point, along the axis
         q = self._start(n, h, delta0)
         # the fallback start where q lands off the wall: the last solution (then q = 0)
-        back = self._q.copy() if self._q is not None else np.zeros((n, 4))
+        back = self._q.copy() if self._q is not None else np.zeros((n, 5))
         if contact is not None:
-            x, w, conv, evals, iters = self._compiled(xr, h, q, back, contact)
+            x, w, conv, evals, iters = self._compiled(xr, h, q, back, contact, last, dt)
         else:
             x, w, conv, evals, iters = self._batched(xr, h, q, back, response, grip)  # type: ignore[arg-type]
         self._q_prev, self._q = self._q, q
@@ -194,9 +203,9 @@ class HolderSolver:
         """The starting deflection: delta0, else the warm start, else none."""
         if self._q is None or len(self._q) != n:
             self.reset()
-            self._jac = np.tile(np.eye(4), (n, 1, 1))
+            self._jac = np.tile(np.eye(5), (n, 1, 1))
             self._have = np.zeros(n, dtype=bool)
-            q0 = np.zeros((n, 4))
+            q0 = np.zeros((n, 5))
         elif self.extrapolate and self._q_prev is not None:
             q0 = 2.0 * self._q - self._q_prev
         else:
@@ -205,23 +214,69 @@ class HolderSolver:
             d, _ = as_rows(delta0, "delta0", "feature deltas")
             if len(d) != n:
                 raise InputError("delta0", f"{len(d)} rows", f"{n} rows, as x_robot")
-            q0 = np.column_stack([d[:, 0] + h * d[:, 4], d[:, 1] - h * d[:, 3], d[:, 3:5]])
+            q0 = np.column_stack([d[:, 0] + h * d[:, 4], d[:, 1] - h * d[:, 3], d[:, 3:5],
+                                  d[:, 2]])  # fmt: skip
         return q0
 
     def _compiled(
-        self, xr: FloatArray, h: FloatArray, q: FloatArray, back: FloatArray, contact: ContactBatch
-    ) -> tuple[FloatArray, FloatArray, BoolArray, int, int]:
+        self, xr: FloatArray, h: FloatArray, q: FloatArray, back: FloatArray,
+        contact: ContactBatch, last: FloatArray | None, dt: float,
+    ) -> tuple[FloatArray, FloatArray, BoolArray, int, int]:  # fmt: skip
+        """The compiled iteration. Where the pair has the rim and the peg moved, its face's
+        friction in two passes (a return mapping): every peg sticks (the regularised law's
+        slope); a peg whose motion then exceeds its slope's range slides, mu N along that
+        motion, solved again."""
         assert self._jac is not None and self._have is not None
         n = len(xr)
-        x, w = np.empty((n, 5)), np.empty((n, 5))
-        conv = np.empty(n, dtype=np.bool_)
-        evals, iters = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+        moving = last is not None and dt > 0.0
+        before = np.ascontiguousarray(last if moving else xr, dtype=float)
+        inv_dt = 1.0 / dt if moving else 0.0
+        rows = np.arange(n)
+        x, w, conv, evals, iters = self._solve_rows(rows, xr, h, q, back, contact, before,
+                                                    inv_dt, np.zeros((n, 3)))  # fmt: skip
+        if moving and contact.has_rim:
+            v = _velocity(x, before, dt)
+            assert v is not None
+            speed = np.linalg.norm(v, axis=1)
+            rim = np.broadcast_to(contact.table[8] > 0, (n,))
+            # sliding on the face or the chamfer moves the peg sideways (an axial motion
+            # alone is the grip's spring, or the bore)
+            slip = np.flatnonzero(rim & (np.linalg.norm(v[:, :2], axis=1) > SLIDE_EPS))
+            if len(slip):
+                # along the stuck solution's motion, fast enough for the law to saturate
+                along = v[slip] / speed[slip, None] * (SLIDE_EPS * 1e4)
+                xs, ws, cs, es, its = self._solve_rows(slip, xr, h, q, back, contact, before,
+                                                       inv_dt, along)  # fmt: skip
+                x[slip], w[slip], conv[slip] = xs, ws, cs
+                evals, iters = evals + es, max(iters, its)
+        return x, w, conv, evals, iters
+
+    def _solve_rows(
+        self, rows: np.ndarray, xr: FloatArray, h: FloatArray, q: FloatArray,
+        back: FloatArray, contact: ContactBatch, last: FloatArray, inv_dt: float,
+        slide: FloatArray,
+    ) -> tuple[FloatArray, FloatArray, BoolArray, int, int]:  # fmt: skip
+        """:func:`~.holder_kernel.solve_rows` on ``rows`` of the step (their deflections,
+        Jacobians and validity updated in place)."""
+        assert self._jac is not None and self._have is not None
+        m = len(rows)
+        whole = m == len(xr)
+        table = contact.table if len(contact) == 1 or whole else contact.table[:, rows]
+        qs, jac, have = (q, self._jac, self._have) if whole else (
+            q[rows], self._jac[rows], self._have[rows])  # fmt: skip
+        x, w = np.empty((m, 5)), np.empty((m, 5))
+        conv = np.empty(m, dtype=np.bool_)
+        evals, iters = np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64)
         ca, sa = contact_kernel.angle_table(contact.n_angles)
+        rim_ca, rim_sa = contact_kernel.angle_table(RAYS_PER_WALL_RAY * contact.n_angles)
         holder_kernel.solve_rows(
-            np.ascontiguousarray(xr), h, q, back, self._jac, self._have, contact.table,
-            contact.peg_top, ca, sa, self._k, self._tol, self.max_iter, holder_kernel.FD_STEP,
-            x, w, conv, evals, iters,
+            np.ascontiguousarray(xr[rows]), h[rows], qs, np.ascontiguousarray(back[rows]), jac,
+            have, np.ascontiguousarray(table), contact.peg_top, ca, sa, rim_ca, rim_sa,
+            np.ascontiguousarray(last[rows]), inv_dt, np.ascontiguousarray(slide),
+            self._k, self._tol, self.max_iter, holder_kernel.FD_STEP, x, w, conv, evals, iters,
         )  # fmt: skip
+        if not whole:
+            q[rows], self._jac[rows], self._have[rows] = qs, jac, have
         return x, w, conv, int(evals.sum()), int(iters.max(initial=0))
 
     def _batched(
@@ -234,8 +289,20 @@ class HolderSolver:
         grip: Grip,
     ) -> tuple[FloatArray, FloatArray, BoolArray, int, int]:
         assert self._jac is not None and self._have is not None
-        return holder_batched.solve_rows(xr, h, q, back, self._jac, self._have, response, grip,
-                                         self._k, self._tol, self.max_iter)  # fmt: skip
+        # a plain callable has no rim: the four lateral and angular coordinates
+        lat = slice(0, holder_kernel.N_LATERAL)
+        return holder_batched.solve_rows(xr, h, q[:, lat], back[:, lat],
+                                         self._jac[:, lat, lat], self._have, response, grip,
+                                         self._k[lat], self._tol[lat], self.max_iter)  # fmt: skip
+
+
+def _velocity(x: FloatArray, last: FloatArray | None, dt: float) -> FloatArray | None:
+    """The velocity in {H} (N, 3) of pegs at features ``x`` that were at ``last`` a period
+    ``dt`` ago (the depth l points into the hole, -z); None without a last."""
+    if last is None or dt <= 0.0:
+        return None
+    d = (x - last) / dt
+    return np.column_stack([d[:, 0], d[:, 1], -d[:, 2]])
 
 
 def _squeeze(e: Equilibrium) -> Equilibrium:
@@ -287,7 +354,7 @@ def solve(
     stage_delta = None
     for j in range(continuation + 1):
         a = CONTINUATION_SPAN ** ((continuation - j) / continuation)
-        stage = Holder(holder.lateral * a, holder.angular * a)
+        stage = holder.scaled(a)
         last = HolderSolver(stage, grip, **options).step(  # type: ignore[arg-type]
             xr[rows], path_response, delta0=stage_delta
         )

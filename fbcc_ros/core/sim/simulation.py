@@ -77,7 +77,7 @@ def scenario_contact(sc: Scenario, n: int, pairs: Sequence[PegHole],
     (:class:`~fbcc_ros.core.sim.plants.model.ModelContact`) or MuJoCo
     (:class:`~fbcc_ros.core.sim.plants.mujoco.MujocoContact`, imported only then)."""
     if sc.plant.type == "model":
-        return ModelContact(n, pairs, sc.holder)
+        return ModelContact(n, pairs, sc.holder, dt or 1.0 / sc.rate_hz)
     from fbcc_ros.core.sim.plants.mujoco import MujocoContact
 
     return MujocoContact.of(sc, n, pairs, dt or 1.0 / sc.rate_hz)

@@ -13,9 +13,8 @@ import pytest
 
 from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.errors import ConfigError
-from fbcc_ros.core.sim.holder import Holder
+from fbcc_ros.core.sim.holder import AXIAL, Holder
 from fbcc_ros.core.sim.plants.mujoco_scene import (
-    AXIAL,
     Contact,
     MujocoPegHole,
     Part,

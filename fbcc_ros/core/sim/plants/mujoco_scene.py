@@ -15,8 +15,8 @@ about the {H} origin, SI units, angles in radians (the MJCF says ``angle="radian
   A plate closes the bottom.
 * **The grip**: the peg has six joints at its grip point, ``grip`` above its tip, each a
   position servo whose target is the hand's commanded pose: a spring to the hand with critical
-  damping, laterally and in tilt the holder's stiffness (:class:`~fbcc_ros.core.sim.holder.
-  Holder`), axially and about z :data:`AXIAL` and :data:`TWIST` (a rigid holder would leave
+  damping, laterally, in tilt and axially the holder's stiffness (:class:`~fbcc_ros.core.sim.
+  holder.Holder`), about z :data:`TWIST` (a rigid holder would leave
   the contact nothing to push against: it takes :data:`RIGID`). A hand that is a mocap body
   with the peg its child would carry the peg along kinematically, past any friction. MuJoCo
   integrates a servo's stiffness explicitly: one too stiff for the timestep gets rotor inertia
@@ -47,9 +47,9 @@ from fbcc_ros.core.sim.holder import Holder
 from fbcc_ros.core.sim.plants.pruning import PRUNE_MOVE, FacetPruning
 from fbcc_ros.core.sim.plants.spec import MAX_TIMESTEP, TIMESTEPS_PER_TIMECONST, PlantSpec
 
-#: The grip's axial stiffness [N/m] and about z [N·m/rad]: the holder is rigid there (position
-#: controlled), MuJoCo needs a finite spring for the contact to act against.
-AXIAL, TWIST = 1.0e6, 1.0e3
+#: The grip's stiffness about z [N·m/rad]: the holder is rigid there (position controlled),
+#: MuJoCo needs a finite spring for the contact to act against (axially: the holder's).
+TWIST = 1.0e3
 #: The largest omega dt of a grip spring (its natural frequency times the timestep): MuJoCo
 #: integrates joint springs explicitly, and a stiffer one is given armature to stay there.
 STABLE = 0.5
@@ -191,7 +191,7 @@ def peg_xml(pair: PegHole, holder: Holder | None = None, part: Part | None = Non
     joints, servos = [], []
     for i, (kind, axis, k, inertia) in enumerate((
             ("slide", "1 0 0", grip.lateral, m), ("slide", "0 1 0", grip.lateral, m),
-            ("slide", "0 0 1", AXIAL, m), ("hinge", "1 0 0", grip.angular, tilt_inertia),
+            ("slide", "0 0 1", grip.axial, m), ("hinge", "1 0 0", grip.angular, tilt_inertia),
             ("hinge", "0 1 0", grip.angular, tilt_inertia),
             ("hinge", "0 0 1", TWIST, m * r * r / 2))):  # fmt: skip
         # a spring is integrated explicitly: one stiffer than the largest timestep resolves
