@@ -31,7 +31,6 @@ those trials are simulated, and DIR/trial_N receives what ``fbcc-sim`` writes fo
 from __future__ import annotations
 
 import argparse
-import csv
 import dataclasses
 import json
 import math
@@ -49,7 +48,6 @@ import numpy as np
 
 from fbcc_ros.cli.common import out_dir
 from fbcc_ros.cli.sim import SUMMARY_HEADER, summary_line, write_run
-from fbcc_ros.core.contact.model import FEATURE_NAMES
 from fbcc_ros.core.control.laws import LAWS
 from fbcc_ros.core.errors import ConfigError, command
 from fbcc_ros.core.sim import scenario as scenario_io
@@ -65,6 +63,7 @@ from fbcc_ros.core.sim.montecarlo import (
 from fbcc_ros.core.sim.plants.spec import PLANTS
 from fbcc_ros.core.sim.simulation import Outcome
 from fbcc_ros.core.sim.study_goals import failures, goals, missed_goals, time_goal
+from fbcc_ros.studies import trials_csv
 
 #: Metrics summarised by percentiles: (name, scale to the printed unit, unit).
 _METRICS = (
@@ -110,7 +109,8 @@ def summarise(outcome: Outcome) -> dict[str, Any]:
     out: dict[str, Any] = {
         "trials": n, "successes": k, "success_rate": k / n, "success_ci95": [lo, hi],
         "force_limited": int(outcome.force_limited.sum()),
-        "guard_tripped": int((outcome.guard_trips > 0).sum()),
+        "wrench_guard_tripped": int(outcome.wrench_guard_tripped.sum()),
+        "guard_tripped": int((outcome.guard_trips > 0).sum()),  # the oscillation guard
         # a compliant holder's equilibria the solver left unconverged (holder_solver.py)
         "holder_unconverged_steps": {"trials": int((outcome.holder_unconverged > 0).sum()),
                                      "max": int(outcome.holder_unconverged.max(initial=0))},
@@ -127,28 +127,6 @@ def summarise(outcome: Outcome) -> dict[str, Any]:
 #: The most trials one study draws: its parts, initial errors and outcomes are held in memory
 #: together (a billion asked for ended in a MemoryError); a million take hours on two cores.
 MAX_TRIALS = 1_000_000
-
-
-def write_trials(trials: Trials, results: dict[str, Outcome], path: Path) -> None:
-    with path.open("w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["law", "trial", "dx0", "dy0", "theta_x0", "theta_y0", "hole_radius",
-                    "peg_radius", "stiffness", "friction", "success", "insertion_time", "peak_fz",
-                    "residual_force", "residual_moment", "tilt_overshoot", "tilt_misadjustment",
-                    "force_limited", "friction_estimate",
-                    *(f"final_{n}" for n in FEATURE_NAMES)])  # fmt: skip
-        for law, o in results.items():
-            for i in range(len(trials)):
-                d, g = trials.initial[i], trials.geometries[i]
-                w.writerow([law, trials.numbers[i],
-                            *(f"{v:.6g}" for v in (d[0], d[1], d[3], d[4])),
-                            f"{g.hole_radius:.7g}", f"{g.peg_radius:.7g}",
-                            f"{g.stiffness:.4g}", f"{g.friction:.4g}", int(o.success[i]),
-                            f"{o.insertion_time[i]:.4g}", f"{o.peak_fz[i]:.4g}",
-                            f"{o.residual_force[i]:.4g}", f"{o.residual_moment[i]:.4g}",
-                            f"{o.tilt_overshoot[i]:.4g}", f"{o.tilt_misadjustment[i]:.4g}",
-                            int(o.force_limited[i]), f"{o.friction_estimate[i]:.4g}",
-                            *(f"{v:.6g}" for v in o.final_features[i])])  # fmt: skip
 
 
 def friction_accuracy(outcome: Outcome, trials: Trials) -> dict[str, Any] | None:
@@ -362,7 +340,7 @@ def main(argv: list[str] | None = None) -> int:
         "plant": dataclasses.asdict(sc.plant),
     }  # fmt: skip
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    write_trials(trials, results, out / "trials.csv")
+    trials_csv.write_trials(trials, results, out / "trials.csv")
     draw(results, out / "histograms.png")
     if stiffness_gpa is not None:
         draw_stiffness(trials, results, missed, deadline, out / "stiffness.png")

@@ -1,6 +1,8 @@
-"""A Monte Carlo study's ``trials.csv`` (``fbcc-montecarlo``), read back by the studies that
-compare studies: a law's rows by trial number, a study run in parts (``--first``) joined into
-one, and the friction bins their tables share."""
+"""A Monte Carlo study's ``trials.csv``: written by ``fbcc-montecarlo``, read back by the studies
+that compare studies: a law's rows by trial number, a study run in parts (``--first``) joined
+into one, and the friction bins their tables share. A row per law and trial: its draws, its
+outcome's figures, its final features and why it ended (``stop_reason``, "" where it ran to its
+end; files written before it have none)."""
 
 from __future__ import annotations
 
@@ -11,10 +13,41 @@ from pathlib import Path
 
 import numpy as np
 
+from fbcc_ros.core.contact.model import FEATURE_NAMES
+from fbcc_ros.core.sim.montecarlo import Trials
+from fbcc_ros.core.sim.simulation import Outcome
+
+#: The columns that are text, not figures.
+TEXT_COLUMNS = ("law", "stop_reason")
 #: A study's rows of one law, by trial number.
 Study = dict[int, dict[str, float]]
 #: The friction bins of the tables against friction.
 BINS = 4
+
+
+def write_trials(trials: Trials, results: dict[str, Outcome], path: Path) -> None:
+    """Each law's outcome of ``trials`` into ``path`` (module doc)."""
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["law", "trial", "dx0", "dy0", "theta_x0", "theta_y0", "hole_radius",
+                    "peg_radius", "stiffness", "friction", "success", "insertion_time", "peak_fz",
+                    "peak_force", "residual_force", "residual_moment", "tilt_overshoot",
+                    "tilt_misadjustment", "force_limited", "friction_estimate",
+                    *(f"final_{n}" for n in FEATURE_NAMES), "stop_reason"])  # fmt: skip
+        for law, o in results.items():
+            for i in range(len(trials)):
+                d, g = trials.initial[i], trials.geometries[i]
+                w.writerow([law, trials.numbers[i],
+                            *(f"{v:.6g}" for v in (d[0], d[1], d[3], d[4])),
+                            f"{g.hole_radius:.7g}", f"{g.peg_radius:.7g}",
+                            f"{g.stiffness:.4g}", f"{g.friction:.4g}", int(o.success[i]),
+                            f"{o.insertion_time[i]:.4g}", f"{o.peak_fz[i]:.4g}",
+                            f"{o.peak_force[i]:.4g}", f"{o.residual_force[i]:.4g}",
+                            f"{o.residual_moment[i]:.4g}",
+                            f"{o.tilt_overshoot[i]:.4g}", f"{o.tilt_misadjustment[i]:.4g}",
+                            int(o.force_limited[i]), f"{o.friction_estimate[i]:.4g}",
+                            *(f"{v:.6g}" for v in o.final_features[i]),
+                            o.stop_reason[i]])  # fmt: skip
 
 
 def study_parts(given: list[str]) -> list[Path]:
@@ -31,7 +64,8 @@ def read_trials(path: Path, law: str) -> Study:
     """The rows of ``law`` in a study's ``trials.csv``, by trial number."""
     with path.open(newline="") as f:
         rows = list(csv.DictReader(f))
-    mine = {int(r["trial"]): {k: float(v) for k, v in r.items() if k not in ("law", "trial")}
+    mine = {int(r["trial"]): {k: float(v) for k, v in r.items()
+                              if k not in (*TEXT_COLUMNS, "trial")}
             for r in rows if r["law"] == law}  # fmt: skip
     if not mine:
         raise ValueError(f"{path} has no trial of the law {law!r} (it has "

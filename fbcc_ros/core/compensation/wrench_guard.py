@@ -104,15 +104,8 @@ class WrenchGuard:
     def contact(self, wrench: FloatArray) -> bool:
         """The compensated, unfiltered wrench in {H} about its origin: False, and tripped, if
         over a limit."""
-        f = math.sqrt(float(wrench[0] ** 2 + wrench[1] ** 2 + wrench[2] ** 2))
-        m = math.sqrt(float(wrench[3] ** 2 + wrench[4] ** 2 + wrench[5] ** 2))
-        keep = 1.0 - self.limits.stop_margin
-        for size, limit, what, unit in ((f, self.limits.force_limit, "|f|", "N"),
-                                        (m, self.limits.moment_limit, "|m|", "N·m")):
-            if size > keep * limit:
-                return self.trip(f"{what} {size:.4g} {unit} over {keep * limit:.4g} {unit}, "
-                                 f"the limit {limit:g} {unit} less its stop margin")
-        return True
+        reason = contact_excess(np.asarray(wrench, dtype=float)[None], self.limits)[0]
+        return self.trip(reason) if reason else True
 
     def tare(self, measured: FloatArray, configured: FloatArray) -> bool:
         """A tare's bias against the configured one: False, and tripped, if they differ by more
@@ -134,3 +127,19 @@ class WrenchGuard:
 
 
 _AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
+
+
+def contact_excess(wrenches: FloatArray, limits: GuardLimits) -> list[str]:
+    """Per compensated, unfiltered wrench in {H} about its origin (N, 6): why it is over the
+    guard's contact limits less their stop margin, or "" where it is within them (the rule of
+    :meth:`WrenchGuard.contact`, for a batch: the simulator's trials)."""
+    f = np.linalg.norm(wrenches[:, :3], axis=1)
+    m = np.linalg.norm(wrenches[:, 3:], axis=1)
+    keep = 1.0 - limits.stop_margin
+    out = [""] * len(wrenches)
+    for size, limit, what, unit in ((m, limits.moment_limit, "|m|", "N·m"),
+                                    (f, limits.force_limit, "|f|", "N")):  # fmt: skip
+        for i in np.flatnonzero(size > keep * limit):  # the force's reason first, if both
+            out[i] = (f"{what} {size[i]:.4g} {unit} over {keep * limit:.4g} {unit}, the limit "
+                      f"{limit:g} {unit} less its stop margin")  # fmt: skip
+    return out

@@ -252,11 +252,19 @@ def grip_moments(
     """
     x = np.asarray(features, dtype=float)
     w = np.asarray(wrench, dtype=float)
-    n = len(x)
     if grip.acting_depth is None:  # the moments are already at the peg top
         return w[:, 3].copy(), w[:, 4].copy()
+    x_g, y_g, z_g = grip_point(x, grip)
+    h = z_g + per_row(grip.acting_depth, len(x), "grip.acting_depth")  # z_G - z_A
+    return w[:, 3] + y_g * w[:, 2] + h * w[:, 1], w[:, 4] - h * w[:, 0] - x_g * w[:, 2]
+
+
+def grip_point(features: FloatArray, grip: Grip) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """``(x_G, y_G, z_G)``: where the grip point G is in {H} for feature rows (N, 5) (module
+    doc; first order in the tilts, as the holder)."""
+    x = np.asarray(features, dtype=float)
+    n = len(x)
     pl = per_row(grip.peg_length, n, "grip.peg_length")
-    depth = per_row(grip.acting_depth, n, "grip.acting_depth")
     rad = per_row(grip.peg_radius, n, "grip.peg_radius")
     tx, ty = np.tan(x[:, 4]), -np.tan(x[:, 3])
     tan2 = tx * tx + ty * ty
@@ -264,6 +272,4 @@ def grip_moments(
     sin_t = np.sqrt(tan2) * cos_t
     l = x[:, 2]
     along = (pl - 0.5 * l) * cos_t
-    x_g, y_g = x[:, 0] + along * tx, x[:, 1] + along * ty
-    h = (rad * sin_t + pl - l) * cos_t + depth  # z_G - z_A
-    return w[:, 3] + y_g * w[:, 2] + h * w[:, 1], w[:, 4] - h * w[:, 0] - x_g * w[:, 2]
+    return x[:, 0] + along * tx, x[:, 1] + along * ty, (rad * sin_t + pl - l) * cos_t

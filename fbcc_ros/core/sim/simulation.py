@@ -57,6 +57,7 @@ from typing import Any
 import numpy as np
 
 from fbcc_ros.core.arrays import FloatArray
+from fbcc_ros.core.compensation.wrench_guard import GuardLimits
 from fbcc_ros.core.contact.model import FEATURE_NAMES, PegHole
 from fbcc_ros.core.contact.segmentation import feature_state
 from fbcc_ros.core.control.laws import Law, make_law
@@ -64,6 +65,7 @@ from fbcc_ros.core.control.supervisor import SafetyLimits
 from fbcc_ros.core.errors import ConfigError, FbccError
 from fbcc_ros.core.sim.plants.model import ModelContact
 from fbcc_ros.core.sim.plants.plant import Contact, LaggingRobot, Plant
+from fbcc_ros.core.sim.safety import CELL_GUARD, TrialSafety
 from fbcc_ros.core.sim.scenario import Scenario, validate
 
 #: Builds a plant: (scenario, robot, deviations (N, 5), true pairs (1 or N)) -> Plant.
@@ -125,6 +127,8 @@ class Outcome:
     final_features: FloatArray
     force_limited: np.ndarray
     guard_trips: FloatArray  # the oscillation guard's trips (robust law; 0 otherwise)
+    wrench_guard_tripped: np.ndarray  # the cell's wrench guard ended the trial
+    stop_reason: np.ndarray  # why the trial ended ("" where it ran to the end: safety.py)
     friction_estimate: FloatArray  # the friction eq. 24's lever measured (robust law; else NaN)
     holder_unconverged: FloatArray  # steps whose holder equilibrium did not converge
 
@@ -144,6 +148,8 @@ class Outcome:
                 zip(FEATURE_NAMES, self.final_features[i].tolist(), strict=True)
             ),
             "force_limited": bool(self.force_limited[i]),
+            "wrench_guard_tripped": bool(self.wrench_guard_tripped[i]),
+            "stop_reason": str(self.stop_reason[i]),
             "peak_force": float(self.peak_force[i]),
             "guard_trips": int(self.guard_trips[i]),
             "friction_estimate": None if math.isnan(mu) else mu,
@@ -194,8 +200,8 @@ class _Metrics:
         self.assembled_at_end = assembled[-1]
 
     def outcome(self, force_limited: np.ndarray, trips: FloatArray | None = None,
-                unconverged: FloatArray | None = None,
-                lever: FloatArray | None = None) -> Outcome:  # fmt: skip
+                unconverged: FloatArray | None = None, lever: FloatArray | None = None,
+                safety: TrialSafety | None = None) -> Outcome:  # fmt: skip
         n_tail = self.steps - self.resid_from
         sign0 = np.sign(self.theta0)
         # past zero, opposite to the initial sign; any excursion when the initial tilt is zero
@@ -203,7 +209,11 @@ class _Metrics:
         over = np.where(sign0 > 0, -self.theta_min, np.where(sign0 < 0, self.theta_max, either))
         grown = np.where(sign0 > 0, self.theta_max, -self.theta_min) - np.abs(self.theta0)
         grown = np.where(sign0 == 0, 0.0, grown)
-        success = self.assembled_at_end & ~force_limited
+        n = len(self.final)
+        tripped = np.zeros(n, dtype=bool) if safety is None else safety.guard_tripped.copy()
+        reason = (np.where(force_limited, "force limit", "").astype(object) if safety is None
+                  else safety.reason.copy())  # fmt: skip
+        success = self.assembled_at_end & ~force_limited & ~tripped
         return Outcome(
             success=success,
             insertion_time=np.where(self.assembled_at_end, self.last_outside, np.nan),
@@ -215,9 +225,11 @@ class _Metrics:
             tilt_misadjustment=np.maximum(grown, 0.0).max(axis=1),
             final_features=self.final,
             force_limited=force_limited,
-            guard_trips=np.zeros(len(self.final)) if trips is None else trips,
-            friction_estimate=np.full(len(self.final), np.nan) if lever is None else lever,
-            holder_unconverged=np.zeros(len(self.final)) if unconverged is None else unconverged,
+            guard_trips=np.zeros(n) if trips is None else trips,
+            wrench_guard_tripped=tripped,
+            stop_reason=reason,
+            friction_estimate=np.full(n, np.nan) if lever is None else lever,
+            holder_unconverged=np.zeros(n) if unconverged is None else unconverged,
         )
 
 
@@ -230,6 +242,7 @@ def simulate(
     record: bool = True,
     seed: int | None = None,
     limits: SafetyLimits | None = None,
+    guard: GuardLimits | None = CELL_GUARD,
     wrap: Callable[[Law], Any] | None = None,
     make_plant: MakePlant | None = None,
     noise_seeds: Sequence[np.random.SeedSequence] | None = None,
@@ -244,6 +257,8 @@ def simulate(
         record: Keep the full signals (memory T × N × 25 floats).
         seed: Seed of the sensor noise, one stream for the batch; default the scenario's.
         limits: The supervisor's step limits; default the controller's.
+        guard: The wrench guard's limits (default the compensation's; None: none). With the
+            supervisor's holds, the cell's safety stack (:mod:`fbcc_ros.core.sim.safety`).
         wrap: Puts something around the law (the same interface: ``reset``, ``step``,
             ``stopped``, ``trips``), e.g. :class:`~fbcc_ros.core.control.state_gate.StateGatedLaw`.
         make_plant: Builds the plant from ``(scenario, robot, deviations, true pairs)``
@@ -270,7 +285,7 @@ def simulate(
     pose = robot.pose  # the robot's pose as features of the believed hole (moved in place)
     law.reset(pose)
     command = pose.copy()  # the supervisor starts from the measured pose
-    limits = limits or SafetyLimits()
+    safety = TrialSafety(n, sc.geometry, limits or SafetyLimits(), guard)
     metrics = _Metrics(sc, dev)
     chunks: list[tuple[np.ndarray, ...]] = []
     buf_x, buf_w, buf_m, buf_c, buf_p = (np.empty((_CHUNK, n, 5)) for _ in range(5))
@@ -284,7 +299,8 @@ def simulate(
             x, w = plant.sense()
             measured = w + sc.bias + noise[j]
             buf_p[j] = pose
-            command = limits.clip(command, law.step(measured, pose, dt))
+            target = law.step(measured, pose, dt)
+            command = safety.command(command, target, pose, measured - sc.bias, x, law.stopped)
             plant.command(command)
             buf_x[j], buf_w[j], buf_m[j], buf_c[j] = x, w, measured, command
         t = (k0 + np.arange(kk)) * dt
@@ -293,7 +309,7 @@ def simulate(
             chunks.append((t, buf_x[:kk].copy(), buf_w[:kk].copy(), buf_m[:kk].copy(),
                            buf_c[:kk].copy(), buf_p[:kk].copy()))  # fmt: skip
     outcome = metrics.outcome(law.stopped.copy(), law.trips.copy(), plant.unconverged,
-                              law.lever_frictions)  # fmt: skip
+                              law.lever_frictions, safety)  # fmt: skip
     if not record:
         return outcome, None
     traj = Trajectory(*(np.concatenate([c[i] for c in chunks]) for i in range(6)))

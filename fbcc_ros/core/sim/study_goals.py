@@ -9,7 +9,10 @@ a trial over either is a failed trial of the study, counted against the success 
 listed, and each row gives the share of trials that met it, its largest figure and how many
 missed it. Read as a bound on every trial instead, the time goal would fail a study over one
 part assembled in 3.01 s while a part not assembled at all counts only against the 99.9 %: a
-slow assembly would weigh more than none. The peak Fz goals are judged on the medians.
+slow assembly would weigh more than none. The peak Fz goals are judged on the tail: the 99th
+percentile over the study's trials (a median hid stiff tight parts peaking at 42-102 N while it
+read 11.8 N), of Fz on clearance parts and of Fz above the part's push-in force on interference
+parts.
 
 The issue states the time goal for its study, 3 s at 5 mm/s over 10 mm: the travel (2 s) and
 one second for the entry and the alignment. :func:`time_goal` keeps that second for any other
@@ -32,7 +35,8 @@ from fbcc_ros.core.sim.simulation import Outcome
 GOAL_SUCCESS = 0.999
 GOAL_RESIDUAL = 0.5  # [N]
 GOAL_TIME_ALLOWANCE = 1.0  # [s] beyond the travel depth / speed (3 s at 5 mm/s over 10 mm)
-GOAL_PEAK_FZ = 15.0  # [N] clearance: median peak; interference: median peak above push-in
+GOAL_PEAK_FZ = 30.0  # [N] clearance: p99 of the peak; interference: p99 of the peak above push-in
+GOAL_PERCENTILE = 99.0  # the peak force's goal judges this percentile of the trials
 GOAL_OVERSHOOT = DEFAULT_TOLERANCE["tilt"]  # [rad] a tilt past zero beyond the success tolerance
 
 
@@ -44,14 +48,14 @@ def time_goal(insertion: Insertion) -> float:
 
 def missed_goals(outcome: Outcome, deadline: float) -> list[list[str]]:
     """Per trial, the per-trial goals it missed (empty: it met them all): assembled within the
-    force limit, by ``deadline`` [s] (:func:`time_goal`), with at most ``GOAL_RESIDUAL`` of
-    lateral force left and no tilt overshoot. A trial that missed any is a failed trial of the
-    study, listed."""
+    force limit and the wrench guard, by ``deadline`` [s] (:func:`time_goal`), with at most
+    ``GOAL_RESIDUAL`` of lateral force left and no tilt overshoot. A trial that missed any is a
+    failed trial of the study, listed."""
     out = []
     for i in range(len(outcome.success)):
         why = []
-        if outcome.force_limited[i]:
-            why.append("force limit")
+        if outcome.stop_reason[i]:  # the force limit, or the wrench guard and its reason
+            why.append(str(outcome.stop_reason[i]))
         elif not outcome.success[i]:
             why.append("not assembled at the end")
         else:
@@ -72,8 +76,8 @@ def goals(outcome: Outcome, trials: Trials, missed: list[list[str]],
     ``success`` is the share of trials that met every per-trial goal (``missed``, from
     :func:`missed_goals` with the same time ``deadline`` [s]). The overshoot row judges every
     trial; the residual and time rows the share of trials assembled within them (module doc),
-    with the largest figure of an assembled trial and how many missed; the peak Fz rows the
-    medians."""
+    with the largest figure of an assembled trial and how many missed; the peak Fz rows their
+    ``GOAL_PERCENTILE`` (module doc)."""
     push_in = np.array([g.push_in_force() for g in trials.geometries])
     ok = outcome.success
     met = np.array([not why for why in missed])
@@ -94,12 +98,14 @@ def goals(outcome: Outcome, trials: Trials, missed: list[list[str]],
         "residual_force_N": _per_trial(ok, outcome.residual_force, GOAL_RESIDUAL),
         "insertion_time_s": _per_trial(ok, outcome.insertion_time, deadline),
     }  # fmt: skip
-    for label, mask, value in (("peak_fz_clearance_median_N", ~interference, outcome.peak_fz),
-                               ("peak_fz_over_push_in_median_N", interference, excess)):
+    for label, mask, value in (("peak_fz_clearance_p99_N", ~interference, outcome.peak_fz),
+                               ("peak_fz_over_push_in_p99_N", interference, excess)):
         if mask.any():
-            med = float(np.median(value[mask]))
-            rows[label] = {"measured": med, "target": f"<= {GOAL_PEAK_FZ}",
-                           "met": med <= GOAL_PEAK_FZ, "trials": int(mask.sum())}  # fmt: skip
+            tail = float(np.percentile(value[mask], GOAL_PERCENTILE))
+            rows[label] = {"measured": tail, "median": float(np.median(value[mask])),
+                           "target": f"<= {GOAL_PEAK_FZ:g} at the {GOAL_PERCENTILE:g}th "
+                                     "percentile of the trials",
+                           "met": tail <= GOAL_PEAK_FZ, "trials": int(mask.sum())}  # fmt: skip
     return rows
 
 
