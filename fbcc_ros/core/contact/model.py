@@ -39,7 +39,7 @@ from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.kernel import WORK_ROWS, angle_table, response_kernel
-from fbcc_ros.core.contact.rim import RAYS_PER_WALL_RAY, no_slide, rim_kernel
+from fbcc_ros.core.contact.rim import RAYS_PER_WALL_RAY, rim_kernel
 from fbcc_ros.core.errors import ConfigError, InputError
 
 #: Order of the features in every feature vector: (dx, dy, l, theta_x, theta_y).
@@ -369,7 +369,8 @@ class ContactBatch:
         f = np.ascontiguousarray(features, dtype=float)
         response_kernel(f, self.table, self.peg_top, ca, sa, out, np.empty((WORK_ROWS, len(f))))
         if self.has_rim:
-            v = no_slide(len(f)) if slide is None else np.ascontiguousarray(slide, dtype=float)
+            v = (np.zeros((len(f), 3)) if slide is None  # a peg at rest where none is given
+                 else np.ascontiguousarray(slide, dtype=float))
             rim_ca, rim_sa = angle_table(RAYS_PER_WALL_RAY * self.n_angles)
             rim_kernel(f, v, self.table, self.peg_top, rim_ca, rim_sa, out)
         return out

@@ -214,8 +214,3 @@ def rim_kernel(
         out[i, 2] += fz
         out[i, 3] += mx
         out[i, 4] += my
-
-
-def no_slide(n: int) -> FloatArray:
-    """The velocity rows of a peg at rest, (n, 3)."""
-    return np.zeros((n, 3))
