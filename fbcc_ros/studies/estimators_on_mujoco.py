@@ -35,9 +35,9 @@ def estimators_on_plants(trials: int, seed: int = 0) -> dict[str, dict[str, Any]
     estimator = ContactStateEstimator(sc.geometry)
     out = {}
     for plant in ("model", "mujoco"):
-        spec = dataclasses.replace(sc.plant, type=plant, chamfer=CHAMFER if plant == "mujoco"
-                                   else 0.0)  # fmt: skip
-        tallies, success = trajectory_study(dataclasses.replace(sc, plant=spec), estimator,
+        part = sc.geometry.replace(rim=True, chamfer=CHAMFER) if plant == "mujoco" else sc.geometry
+        on = dataclasses.replace(sc.on_plant(plant), geometry=part)
+        tallies, success = trajectory_study(on, estimator,
                                             sc.geometry.stiffness, trials, seed)  # fmt: skip
         out[plant] = {"assembled": success,
                       **{m: tallies[m].as_dict() for m in METHODS}}  # fmt: skip

@@ -189,10 +189,10 @@ def study_scenario(plant: str, duration: float = DURATION) -> Scenario:
     """:data:`SCENARIO` with the fbcc law, :data:`DEPTH` deep, on ``plant`` (MuJoCo's hole with
     :data:`CHAMFER`)."""
     sc = scenario_io.load(scenario_io.find(SCENARIO)).with_law("fbcc")
-    spec = dataclasses.replace(sc.plant, type=plant, chamfer=CHAMFER if plant == "mujoco"
-                               else 0.0)  # fmt: skip
+    part = sc.geometry.replace(rim=True, chamfer=CHAMFER) if plant == "mujoco" else sc.geometry
     insertion = dataclasses.replace(sc.insertion, depth=DEPTH)
-    return dataclasses.replace(sc, plant=spec, duration=duration, insertion=insertion)
+    return dataclasses.replace(sc, geometry=part, plant=sc.on_plant(plant).plant,
+                               duration=duration, insertion=insertion)  # fmt: skip
 
 
 def run_probed(sc: Scenario, parts: list[PegHole], deviations: FloatArray, seed: int,

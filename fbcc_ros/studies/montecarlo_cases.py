@@ -69,16 +69,16 @@ def _percent(k: int, n: int) -> str:
 
 
 def markdown(cases: dict[str, Study]) -> str:
-    """The cases' table (a trial succeeded, or failed on the force limit, or else was not
-    assembled at the end) and the tables of success against friction and against the
-    wedging ratio (:func:`wedging_ratio`)."""
-    lines = ["| case | trials | succeeded (95 %) | failed: force limit | failed: not assembled at "
+    """The cases' table (a trial succeeded, or was stopped by the force limit or the wrench
+    guard, or else was not assembled at the end) and the tables of success against friction
+    and against the wedging ratio (:func:`wedging_ratio`)."""
+    lines = ["| case | trials | succeeded (95 %) | failed: stopped | failed: not assembled at "
              "the end | failed trials' final depth, median | peak Fz median, p99 | insertion "
              "time of the succeeded, median |", "|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for name, case in cases.items():
         rows = list(case.values())
         ok = np.array([bool(r["success"]) for r in rows])
-        limited = np.array([bool(r["force_limited"]) for r in rows])
+        limited = np.array([bool(r["stopped"]) for r in rows])
         time = np.array([r["insertion_time"] for r in rows])
         peak = np.array([r["peak_fz"] for r in rows])
         median_time = f"{np.median(time[ok]):.2f} s" if ok.any() else "-"

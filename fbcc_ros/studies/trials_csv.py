@@ -61,16 +61,24 @@ def study_parts(given: list[str]) -> list[Path]:
 
 
 def read_trials(path: Path, law: str) -> Study:
-    """The rows of ``law`` in a study's ``trials.csv``, by trial number."""
+    """The rows of ``law`` in a study's ``trials.csv``, by trial number, with ``stopped``: 1
+    where the force limit or the wrench guard ended the trial."""
     with path.open(newline="") as f:
         rows = list(csv.DictReader(f))
-    mine = {int(r["trial"]): {k: float(v) for k, v in r.items()
-                              if k not in (*TEXT_COLUMNS, "trial")}
+    mine = {int(r["trial"]): {**{k: float(v) for k, v in r.items()
+                                 if k not in (*TEXT_COLUMNS, "trial")},
+                              "stopped": float(_stopped(r))}
             for r in rows if r["law"] == law}  # fmt: skip
     if not mine:
         raise ValueError(f"{path} has no trial of the law {law!r} (it has "
                          f"{sorted({r['law'] for r in rows})})")  # fmt: skip
     return mine
+
+
+def _stopped(row: dict[str, str]) -> bool:
+    """Whether a row's trial was ended by the safety stack (a file without ``stop_reason``
+    predates the wrench guard in the simulator: its force limit alone)."""
+    return bool(row.get("stop_reason")) or row["force_limited"] == "1"
 
 
 #: What a study's ``summary.json`` says of how its trials were drawn and run (``_run``): the

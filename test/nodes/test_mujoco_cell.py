@@ -20,9 +20,10 @@ PAIR = {"hole_radius": 0.00505, "peg_radius": 0.00504, "hole_depth": 0.01,
 #: model: ``--plant mujoco`` is what makes the cell MuJoCo's. A coarse bore (32 facets, 0.1 ms)
 #: keeps the cell near real time on a shared two-core machine (docs/plant.md, speed): this test
 #: is of the plumbing, the credibility study is of the physics.
-SCENARIO = {"geometry": PAIR, "initial": {"dx": 1e-4, "dy": 0.0, "theta_x": 0.0, "theta_y": 0.0},
+SCENARIO = {"geometry": {**PAIR, "rim": True, "chamfer": 3e-4},
+            "initial": {"dx": 1e-4, "dy": 0.0, "theta_x": 0.0, "theta_y": 0.0},
             "insertion": {"depth": 0.001, "speed": 0.005}, "duration": 1.5,
-            "plant": {"chamfer": 3e-4, "facets": 32, "timestep": 1e-4, "timeconst": 4e-4}}
+            "plant": {"facets": 32, "timestep": 1e-4, "timeconst": 4e-4}}
 
 
 def test_the_cell_on_mujoco_records_a_bag_rosbags_reads_and_the_report_draws(

@@ -278,12 +278,17 @@ def make_law(
 ) -> Law:
     """The law called ``name``: ``fbcc``, ``admittance`` or ``none``.
 
+    The laws model the contact by eq. 5-13's wall alone: a pair's rim
+    (:attr:`~fbcc_ros.core.contact.model.PegHole.rim`) is the plant's, not theirs.
+
     With the robust configuration (the default, ``params`` None or :class:`RobustParams`),
     ``fbcc`` is the stiffness-robust law of :mod:`fbcc_ros.core.control.robust`; the baselines have
     no robust form and run with their shipped gains, Table I label 3 (keeping its force limit).
     """
     if name not in LAWS:
         raise ConfigError("controller.type", name, f"one of {sorted(LAWS)}")
+    # every law's own contact model is eq. 5-13's wall; the rim is the plant's
+    nominal = nominal.replace(rim=False, chamfer=0.0)
     if params is None or isinstance(params, RobustParams):
         robust = params or RobustParams()
         if name == "fbcc":

@@ -6,7 +6,10 @@ A scenario is a mapping (usually YAML) with these keys; every key but ``geometry
 =============  ========================================================================
 geometry       the PegHole fields [m, Pa]: hole_radius, peg_radius, hole_depth,
                base_thickness, friction, stiffness (k of eq. 8; see docs/reproduction.md),
-               acting_point (hole_bottom), peg_length (0.05), n_angles (48)
+               acting_point (hole_bottom), peg_length (0.05), n_angles (48); rim (false:
+               the paper's model, the wall alone; true: the model plant has the top face and
+               bottom too, with a compliant holder), chamfer [m] (0; 45°, with rim: MuJoCo's
+               scene takes it too)
 controller     type: fbcc | admittance | none, or a list of them to compare (default fbcc);
                params: label (Table I, default 3) and any ComplianceParams field
 initial        the unknown deviation of the hole: dx, dy [m], theta_x, theta_y [rad]
@@ -25,8 +28,8 @@ robot          lag: time constant of the position-controlled robot [s] (0.005); 
 holder         the compliance of arm, sensor and gripper at the grip point (absent: rigid):
                lateral [N/m], angular [N·m/rad] (fbcc_ros/core/sim/holder.py has typical values)
 plant          type: model (eq. 5-13, the default) | mujoco (fbcc_ros/core/sim/plants/);
-               for mujoco: facets of the bore (128), chamfer [m] (0), rim [m] (0.005),
-               timestep [s] (1e-4)
+               for mujoco: facets of the bore (128), face_width [m] (0.005, the top face
+               around the hole), timestep [s] (5e-5), timeconst [s] (2e-4)
 tolerance      success tolerances: offset [m] (2e-5), tilt [rad] (0.0035), depth [m] (1e-5),
                force [N] (1.0): a plane whose lateral force is below it counts as settled
 rate_hz        control and simulation rate [Hz] (1000)
@@ -154,7 +157,7 @@ def _vector5(key: str, value: Any, limit: float, unit: str) -> FloatArray:
 
 def _geometry(value: Any) -> PegHole:
     fields = ("hole_radius", "peg_radius", "hole_depth", "base_thickness", "friction",
-              "stiffness", "acting_point", "peg_length", "n_angles")  # fmt: skip
+              "stiffness", "acting_point", "peg_length", "n_angles", "rim", "chamfer")  # fmt: skip
     g = _mapping("geometry", value, fields, fields[:6])
     kw: dict[str, Any] = {}
     for name in ("hole_radius", "peg_radius", "hole_depth", "peg_length"):
@@ -165,9 +168,11 @@ def _geometry(value: Any) -> PegHole:
     )
     kw["friction"] = _number("geometry.friction", g["friction"], 0, 1, "(dimensionless, < 1)")
     kw["stiffness"] = _number("geometry.stiffness", g["stiffness"], *_STIFFNESS_RANGE, "Pa")
-    for name in ("acting_point", "n_angles"):
+    for name in ("acting_point", "n_angles", "rim"):
         if name in g:
             kw[name] = g[name]
+    if "chamfer" in g:
+        kw["chamfer"] = _number("geometry.chamfer", g["chamfer"], 0, _LENGTH_MAX, "m")
     fit = abs(kw["hole_radius"] - kw["peg_radius"]) / kw["hole_radius"]
     if fit > _FIT_MAX:
         raise ConfigError(
@@ -277,9 +282,12 @@ def validate(scenario: Any, name: str = "scenario") -> Scenario:
     seed = s.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ConfigError("seed", seed, "an integer >= 0")
+    plant = plant_spec(s.get("plant", {}), rate)
+    if geometry.chamfer >= plant.face_width:  # MuJoCo's top face holds the chamfer
+        raise ConfigError("geometry.chamfer", geometry.chamfer,
+                          f"less than plant.face_width ({plant.face_width:g} m)")  # fmt: skip
     return Scenario(geometry, laws, params, initial, insertion, noise, bias, lag, tolerance,
-                    rate, duration, seed, name, holder, cell, delay,
-                    plant_spec(s.get("plant", {}), rate))  # fmt: skip
+                    rate, duration, seed, name, holder, cell, delay, plant)  # fmt: skip
 
 
 def _choice(key: str, value: Any, choices: tuple[str, ...]) -> str:

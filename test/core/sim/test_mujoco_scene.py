@@ -59,7 +59,7 @@ def test_bad_scene_parameters_are_refused() -> None:
     with pytest.raises(ConfigError, match="facets"):
         Part(facets=8)
     with pytest.raises(ConfigError, match="chamfer"):
-        Part(chamfer=0.01, rim=0.005)
+        Part(chamfer=0.01, face_width=0.005)
 
 
 def test_an_aligned_peg_inserts_freely_at_10_um_clearance() -> None:

@@ -25,9 +25,10 @@ BASE: dict[str, Any] = {
 }  # fmt: skip
 
 
-def _scenario(plant: dict[str, Any], **initial: float) -> scenario.Scenario:
-    return scenario.validate({**BASE, "initial": {**BASE["initial"], **initial},
-                              "plant": plant})  # fmt: skip
+def _scenario(plant: dict[str, Any], geometry: dict[str, Any] | None = None,
+              **initial: float) -> scenario.Scenario:  # fmt: skip
+    return scenario.validate({**BASE, "initial": {**BASE["initial"], **initial}, "plant": plant,
+                              "geometry": {**BASE["geometry"], **(geometry or {})}})  # fmt: skip
 
 
 @pytest.mark.parametrize(("kind", "cls"), [("model", ModelContact), ("mujoco", MujocoContact)])
@@ -70,7 +71,7 @@ def test_mujoco_has_the_top_face_the_model_lacks() -> None:
 
 @pytest.mark.parametrize(("plant", "key"), [
     ({"type": "bullet"}, "plant.type"), ({"type": "mujoco", "facets": 8}, "plant.facets"),
-    ({"type": "mujoco", "chamfer": 0.01}, "plant.chamfer"),
+    ({"type": "mujoco", "chamfer": 3e-4}, "plant.chamfer"),  # the part's: geometry.chamfer
     ({"type": "mujoco", "timestep": 3e-4}, "plant.timestep"),
     ({"type": "mujoco", "timestep": 3e-5}, "plant.timestep"),
     ({"type": "mujoco", "timestep": 1e-4}, "plant.timeconst"),  # 2 timesteps: unsettled
@@ -81,12 +82,17 @@ def test_a_bad_plant_is_refused_naming_its_key(plant: dict[str, Any], key: str) 
         _scenario(plant)
 
 
+def test_a_chamfer_wider_than_the_top_face_is_refused() -> None:
+    with pytest.raises(ConfigError, match=r"geometry\.chamfer.*plant\.face_width"):
+        _scenario({"type": "mujoco", "face_width": 0.002}, {"rim": True, "chamfer": 0.003})
+
+
 def test_the_plant_keys_build_the_scene_they_name() -> None:
-    """facets, chamfer, rim and timestep reach MuJoCo's model: the bore's boxes, their place,
-    the timestep and the substeps of a control period."""
-    keys = {"type": "mujoco", "facets": 64, "chamfer": 2e-4, "rim": 0.004, "timestep": 1e-4,
+    """facets, the part's chamfer, face_width and timestep reach MuJoCo's model: the bore's
+    boxes, their place, the timestep and the substeps of a control period."""
+    keys = {"type": "mujoco", "facets": 64, "face_width": 0.004, "timestep": 1e-4,
             "timeconst": 1e-3}  # fmt: skip
-    sc = _scenario(keys)
+    sc = _scenario(keys, {"rim": True, "chamfer": 2e-4})
     robot = LaggingRobot(1, 1.0 / sc.rate_hz, sc.lag, sc.delay)
     plant = scenario_plant(sc, robot, sc.initial[None], [sc.geometry])
     assert isinstance(plant.contact, MujocoContact)
@@ -94,7 +100,7 @@ def test_the_plant_keys_build_the_scene_they_name() -> None:
     assert model.opt.timestep == 1e-4 and plant.contact.substeps == 10
     assert model.geom_solref[0][0] == 1e-3
     assert model.ngeom == 2 * 64 + 1 + 1  # facets, chamfer facets, bottom, peg
-    facet = model.geom_size[0]  # half the rim, half a facet's width, half the bore's depth
+    facet = model.geom_size[0]  # half the face, half a facet's width, half the bore's depth
     assert facet[0] == pytest.approx(0.002) and facet[2] == pytest.approx((0.01 - 2e-4) / 2)
 
 
@@ -112,7 +118,8 @@ def _chamfered_insertion(**plant: Any) -> dict[str, Any]:
             "insertion": {"depth": 0.001, "speed": 0.005},
             "duration": 1.0,
             "sensor": {"noise": 0},
-            "plant": {"type": "mujoco", "chamfer": 3e-4, **plant},
+            "geometry": {**BASE["geometry"], "rim": True, "chamfer": 3e-4},
+            "plant": {"type": "mujoco", **plant},
         }
     )
     return simulate(sc, "fbcc", record=False)[0].summary(0)

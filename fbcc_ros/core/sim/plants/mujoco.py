@@ -31,7 +31,7 @@ class MujocoContact:
     pairs: The true pairs, one or N.
     holder: The grip (None: the scene's stiffest, :data:`~.mujoco_scene.RIGID`).
     dt: The control period [s], a whole number of MuJoCo timesteps.
-    part: The bore's facets, chamfer and rim; the peg's length, grip and mass.
+    part: The bore's facets, chamfer and face width; the peg's length, grip and mass.
     contact: MuJoCo's contact parameters.
     """
 
@@ -51,7 +51,7 @@ class MujocoContact:
     def of(cls, sc: Any, n: int, pairs: Sequence[PegHole], dt: float) -> MujocoContact:
         """The contact of a scenario (:class:`~fbcc_ros.core.sim.scenario.Scenario`): its
         holder, its ``plant`` section's scene (:func:`scene_of`)."""
-        return cls(n, pairs, sc.holder, dt, *scene_of(sc.plant))
+        return cls(n, pairs, sc.holder, dt, *scene_of(sc))
 
     def touch(self, hand: FloatArray) -> tuple[FloatArray, FloatArray]:
         """(:meth:`~fbcc_ros.core.sim.plants.plant.Contact.touch`) The first touch places each
@@ -68,8 +68,10 @@ class MujocoContact:
         return features, response
 
 
-def scene_of(spec: PlantSpec) -> tuple[Part, Contact]:
-    """The bore and MuJoCo's contact of a scenario's ``plant`` section: its facets, chamfer and
-    rim; its timestep and contact time constant."""
-    return (Part(facets=spec.facets, chamfer=spec.chamfer, rim=spec.rim),
+def scene_of(sc: Any) -> tuple[Part, Contact]:
+    """The bore and MuJoCo's contact of a scenario (:class:`~fbcc_ros.core.sim.scenario.
+    Scenario`): its part's chamfer (``geometry.chamfer``), its ``plant`` section's facets, face
+    width, timestep and contact time constant."""
+    spec: PlantSpec = sc.plant
+    return (Part(facets=spec.facets, chamfer=sc.geometry.chamfer, face_width=spec.face_width),
             Contact(timeconst=spec.timeconst, timestep=spec.timestep))  # fmt: skip

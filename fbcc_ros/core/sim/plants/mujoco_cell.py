@@ -118,7 +118,7 @@ class MujocoCell:
            pair: PegHole, dt: float) -> MujocoCell:  # fmt: skip
         """The cell of a scenario (:class:`~fbcc_ros.core.sim.scenario.Scenario`): its holder,
         its ``plant`` section's scene (:func:`~.mujoco.scene_of`)."""
-        return cls(robot, hole_in_base, q, pair, sc.holder, *scene_of(sc.plant), dt)
+        return cls(robot, hole_in_base, q, pair, sc.holder, *scene_of(sc), dt)
 
     def command(self, q: FloatArray) -> None:
         """The joint positions the servos hold [rad]."""

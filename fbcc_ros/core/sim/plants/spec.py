@@ -28,14 +28,17 @@ class PlantSpec:
 
     type: str = "model"
     facets: int = 128
-    chamfer: float = 0.0
-    rim: float = 0.005
+    face_width: float = 0.005
     timestep: float = TIMESTEP
     timeconst: float = TIMESTEPS_PER_TIMECONST * TIMESTEP
 
 
 def plant_spec(value: Any, rate: float) -> PlantSpec:
     """The ``plant`` section, checked against the control rate ``rate`` [Hz]."""
+    if isinstance(value, dict) and "chamfer" in value:
+        raise ConfigError("plant.chamfer", value["chamfer"],
+                          "geometry.chamfer, with geometry.rim: true: the part's chamfer, "
+                          "which both plants take")  # fmt: skip
     p = mapping("plant", value, tuple(f.name for f in dataclasses.fields(PlantSpec)))
     kind = p.get("type", "model")
     if kind not in PLANTS:
@@ -43,9 +46,8 @@ def plant_spec(value: Any, rate: float) -> PlantSpec:
     facets = p.get("facets", PlantSpec.facets)
     if isinstance(facets, bool) or not isinstance(facets, int) or not 16 <= facets <= 4096:
         raise ConfigError("plant.facets", facets, "an integer in [16, 4096]")
-    rim = number("plant.rim", p.get("rim", PlantSpec.rim), 0, 0.1, "m", low_open=True)
-    chamfer = number("plant.chamfer", p.get("chamfer", 0.0), 0, 0.999 * rim,
-                     f"m (less than plant.rim, {rim:g} m)")  # fmt: skip
+    width = number("plant.face_width", p.get("face_width", PlantSpec.face_width), 0, 0.1, "m",
+                   low_open=True)  # fmt: skip
     timestep = number("plant.timestep", p.get("timestep", PlantSpec.timestep), 0,
                       MAX_TIMESTEP, "s", low_open=True)  # fmt: skip
     periods = 1.0 / (rate * timestep)
@@ -55,4 +57,4 @@ def plant_spec(value: Any, rate: float) -> PlantSpec:
     least = TIMESTEPS_PER_TIMECONST * timestep
     timeconst = number("plant.timeconst", p.get("timeconst", PlantSpec.timeconst), least, 0.01,
                        f"s (at least {TIMESTEPS_PER_TIMECONST} timesteps)")  # fmt: skip
-    return PlantSpec(kind, facets, chamfer, rim, timestep, timeconst)
+    return PlantSpec(kind, facets, width, timestep, timeconst)
