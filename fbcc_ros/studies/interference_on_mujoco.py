@@ -159,14 +159,15 @@ def pushes_table(travel: float = 0.002) -> list[Push]:
     the hole, without and with a 0.3 mm chamfer; from 1 mm in the bore, MuJoCo's contact as
     shipped and :data:`SOFT`."""
     pair = interference_pair(REFERENCE_K)
-    cases = (("above, no chamfer", -3.0e-4, Contact(), Part()),
-             ("above, 0.3 mm chamfer", -3.0e-4, Contact(), Part(chamfer=3.0e-4)),
-             ("in the bore from 1 mm", 1.0e-3, Contact(), Part()),
+    chamfered = pair.replace(rim=True, chamfer=3.0e-4)
+    cases = (("above, no chamfer", -3.0e-4, Contact(), pair),
+             ("above, 0.3 mm chamfer", -3.0e-4, Contact(), chamfered),
+             ("in the bore from 1 mm", 1.0e-3, Contact(), pair),
              ("in the bore from 1 mm, solref 1 ms, solimp (0.9, 0.95)", 1.0e-3, SOFT,
-              Part()))  # fmt: skip
+              pair))  # fmt: skip
     out = []
     for name, start, contact, part in cases:
-        hand, peg, fz = push(pair, start, start + travel, contact, part)[-1]
+        hand, peg, fz = push(part, start, start + travel, contact)[-1]
         out.append(Push(name, float(hand), float(peg), float(fz), AXIAL * float(hand - peg),
                         model_fz(pair, float(hand))))  # fmt: skip
     return out

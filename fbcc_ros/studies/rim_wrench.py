@@ -23,7 +23,6 @@ from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.sim.holder import Holder
 from fbcc_ros.core.sim.plants.model import ModelContact
 from fbcc_ros.core.sim.plants.mujoco import MujocoContact
-from fbcc_ros.core.sim.plants.mujoco_scene import Part
 from fbcc_ros.core.sim.plants.plant import Contact
 
 DEG = math.pi / 180
@@ -82,9 +81,10 @@ class Settled:
 def contact(plant: str, case: Case, pair: PegHole, grip: Holder, dt: float) -> Contact:
     """The plant's contact of one trial: the model with the rim and the case's chamfer, or
     MuJoCo's scene with it."""
+    part = pair.replace(rim=True, chamfer=case.chamfer)
     if plant == "model":
-        return ModelContact(1, [pair.replace(rim=True, chamfer=case.chamfer)], grip, dt)
-    return MujocoContact(1, [pair], grip, dt, Part(chamfer=case.chamfer))
+        return ModelContact(1, [part], grip, dt)
+    return MujocoContact(1, [part], grip, dt)
 
 
 def settle(plant: str, case: Case, pair: PegHole = PAIR, grip: Holder = GRIP,

@@ -26,9 +26,10 @@ from fbcc_ros.core.sim.plants.pruning import PRUNE_MOVE
 R, CLEARANCE = 0.00501, 1.0e-5
 
 
-def _pair(friction: float = 0.15, depth: float = 0.01) -> PegHole:
+def _pair(friction: float = 0.15, depth: float = 0.01, chamfer: float = 0.0) -> PegHole:
     return PegHole(hole_radius=R, peg_radius=R - CLEARANCE, hole_depth=depth,
-                   base_thickness=0.005, friction=friction, stiffness=1e11)  # fmt: skip
+                   base_thickness=0.005, friction=friction, stiffness=1e11,
+                   rim=chamfer > 0, chamfer=chamfer)  # fmt: skip
 
 
 def _move(plant: MujocoPegHole, start: np.ndarray, end: np.ndarray, seconds: float,
@@ -48,7 +49,7 @@ def test_the_bores_shape_error_is_the_polygons() -> None:
     assert shape_error(0.005, 128) == pytest.approx(0.005 * (1 / math.cos(math.pi / 128) - 1))
     assert 1.4e-6 < shape_error(0.005, 128) < 1.6e-6
     assert scene_xml(_pair()).count('class="hole"/>') == 128 + 1  # the facets and the bottom
-    assert scene_xml(_pair(), part=Part(chamfer=3e-4)).count('class="hole"/>') == 2 * 128 + 1
+    assert scene_xml(_pair(chamfer=3e-4)).count('class="hole"/>') == 2 * 128 + 1
 
 
 def test_bad_scene_parameters_are_refused() -> None:
@@ -58,8 +59,8 @@ def test_bad_scene_parameters_are_refused() -> None:
         Contact(timeconst=1e-3, timestep=2e-4)  # past MAX_TIMESTEP, the armature's
     with pytest.raises(ConfigError, match="facets"):
         Part(facets=8)
-    with pytest.raises(ConfigError, match="chamfer"):
-        Part(chamfer=0.01, face_width=0.005)
+    with pytest.raises(ConfigError, match="chamfer"):  # the pair's, wider than the face
+        scene_xml(_pair(chamfer=0.006), part=Part(face_width=0.005))
 
 
 def test_an_aligned_peg_inserts_freely_at_10_um_clearance() -> None:
@@ -128,7 +129,7 @@ def test_an_offset_peg_stands_on_the_top_face_unless_a_chamfer_leads_it_in(
         chamfer: float, enters: bool) -> None:  # fmt: skip
     """0.2 mm off, 20 times the clearance: without a chamfer the peg lands on the hole's top
     face and is pressed there (0.1 mm past it: 100 N); a 0.3 mm chamfer slides it in."""
-    plant = MujocoPegHole(_pair(), Holder(5e4, 30.0), Part(chamfer=chamfer))
+    plant = MujocoPegHole(_pair(chamfer=chamfer), Holder(5e4, 30.0))
     start = np.array([2e-4, 0, -0.001, 0, 0.0])
     plant.place(start)
     down = 0.0011 + (0.0019 if enters else 0.0)
@@ -164,8 +165,9 @@ def test_every_contact_lies_on_the_pegs_surface(dx: float, tilt: float, chamfer:
     contact MuJoCo finds lies within 50 µm of the peg (the convex collider's tolerance at
     its 1 µm default put contacts 5 mm off it, with spikes of 325 N)."""
     pair = PegHole(hole_radius=0.00505, peg_radius=0.00504, hole_depth=0.01,
-                   base_thickness=0.005, friction=0.3, stiffness=1.84e8)  # fmt: skip
-    plant = MujocoPegHole(pair, Holder(5e4, 30.0), Part(chamfer=chamfer))
+                   base_thickness=0.005, friction=0.3, stiffness=1.84e8, rim=chamfer > 0,
+                   chamfer=chamfer)  # fmt: skip
+    plant = MujocoPegHole(pair, Holder(5e4, 30.0))
     hand = np.array([dx, 0.0, -5e-4, 0.0, tilt])
     plant.place(hand)
     for _ in range(400):
@@ -199,7 +201,7 @@ def test_pruning_the_hole_changes_nothing(start: tuple[float, ...], down: float,
     runs = []
     for prune in (False, True):
         calls.clear()
-        plant = MujocoPegHole(_pair(), Holder(5e4, 30.0), Part(chamfer=chamfer), prune=prune)
+        plant = MujocoPegHole(_pair(chamfer=chamfer), Holder(5e4, 30.0), prune=prune)
         hand = np.array(start)
         plant.place(hand)
         n = 200
@@ -223,7 +225,7 @@ def test_no_box_the_pruning_takes_out_touches_the_peg() -> None:
     finds no contact with a box :meth:`FacetPruning.prune` took out at the pose, and it takes
     out most. (mj_geomDistance is no judge: it returned 0 for a box 0.2 mm from the peg.)"""
     rng = np.random.default_rng(3)
-    plant = MujocoPegHole(_pair(), part=Part(chamfer=3e-4))
+    plant = MujocoPegHole(_pair(chamfer=3e-4))
     m, d, pruning = plant.model, plant.data, plant._pruning
     peg, first, move_xy, move_z = m.geom("peg").id, min(plant._hole_geoms), *PRUNE_MOVE
     out = 0
@@ -251,8 +253,9 @@ def test_the_period_wrench_is_the_mean_of_the_contacts_wrench_over_its_timesteps
     over 20, the mean of theirs (what a sensor reads of a soft contact at rest on the wall,
     which lets go for a timestep now and then)."""
     pair = PegHole(hole_radius=0.00505, peg_radius=0.00504, hole_depth=0.01,
-                   base_thickness=0.005, friction=0.3, stiffness=1.84e8)  # fmt: skip
-    plant = MujocoPegHole(pair, Holder(5e4, 30.0), Part(chamfer=3e-4))
+                   base_thickness=0.005, friction=0.3, stiffness=1.84e8, rim=True,
+                   chamfer=3e-4)  # fmt: skip
+    plant = MujocoPegHole(pair, Holder(5e4, 30.0))
     hand = np.array([1e-4, 0.0, -5e-4, 0.0, 0.01])
     plant.place(hand)
     spec = mujoco.mjtState.mjSTATE_INTEGRATION

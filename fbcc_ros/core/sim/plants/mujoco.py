@@ -31,7 +31,8 @@ class MujocoContact:
     pairs: The true pairs, one or N.
     holder: The grip (None: the scene's stiffest, :data:`~.mujoco_scene.RIGID`).
     dt: The control period [s], a whole number of MuJoCo timesteps.
-    part: The bore's facets, chamfer and face width; the peg's length, grip and mass.
+    part: The bore's facets and face width; the peg's length, grip and mass (the chamfer is
+        each pair's, :attr:`PegHole.chamfer`).
     contact: MuJoCo's contact parameters.
     """
 
@@ -70,8 +71,8 @@ class MujocoContact:
 
 def scene_of(sc: Any) -> tuple[Part, Contact]:
     """The bore and MuJoCo's contact of a scenario (:class:`~fbcc_ros.core.sim.scenario.
-    Scenario`): its part's chamfer (``geometry.chamfer``), its ``plant`` section's facets, face
-    width, timestep and contact time constant."""
+    Scenario`): its ``plant`` section's facets, face width, timestep and contact time constant
+    (the chamfer is each true pair's, ``geometry.chamfer`` or a trial's draw)."""
     spec: PlantSpec = sc.plant
-    return (Part(facets=spec.facets, chamfer=sc.geometry.chamfer, face_width=spec.face_width),
+    return (Part(facets=spec.facets, face_width=spec.face_width),
             Contact(timeconst=spec.timeconst, timestep=spec.timestep))  # fmt: skip

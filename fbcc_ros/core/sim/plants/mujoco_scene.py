@@ -11,9 +11,8 @@ about the {H} origin, SI units, angles in radians (the MJCF says ``angle="radian
   hole is the polygon circumscribing it, so its radius is R at a facet's middle and
   ``R / cos(pi / facets)`` at a corner (the shape error :func:`shape_error`, 1.5 µm at R = 5 mm
   and 128 facets). A non-convex mesh would collide as its convex hull, a closed hole. The boxes'
-  tops form the hole's top face, as wide as ``face_width``. A chamfer is a second ring of boxes
-  at 45°.
-  A plate closes the bottom.
+  tops form the hole's top face, as wide as ``face_width``. The pair's chamfer is a second ring
+  of boxes at 45°. A plate closes the bottom.
 * **The grip**: the peg has six joints at its grip point, ``grip`` above its tip, each a
   position servo whose target is the hand's commanded pose: a spring to the hand with critical
   damping, laterally, in tilt and axially the holder's stiffness (:class:`~fbcc_ros.core.sim.
@@ -101,16 +100,14 @@ class Part:
 
     Attributes:
         facets: The bore's flat faces (at least 16).
-        chamfer: The 45° chamfer's width at the top [m] (0: none; a scenario's is its
-            ``geometry.chamfer``, :func:`~.mujoco.scene_of`).
-        face_width: The width of the hole's top face around it [m].
+        face_width: The width of the hole's top face around it [m] (the chamfer is the
+            pair's, :attr:`PegHole.chamfer`).
         peg_length: From the tip to the peg's top [m].
         grip: The grip point's height above the tip [m].
         peg_mass: [kg].
     """
 
     facets: int = 128
-    chamfer: float = 0.0
     face_width: float = 0.005
     peg_length: float = 0.05
     grip: float = 0.05
@@ -119,9 +116,6 @@ class Part:
     def __post_init__(self) -> None:
         if self.facets < 16:
             raise ConfigError("plant.facets", self.facets, "at least 16")
-        if self.chamfer < 0 or self.face_width <= self.chamfer:
-            raise ConfigError("geometry.chamfer", self.chamfer,
-                              f"in [0, plant.face_width {self.face_width:g} m)")  # fmt: skip
 
 
 def shape_error(radius: float, facets: int) -> float:
@@ -151,7 +145,10 @@ _ROT_Y_45 = np.array([[math.sqrt(0.5), 0.0, math.sqrt(0.5)], [0.0, 1.0, 0.0],
 
 def _bore(pair: PegHole, part: Part) -> str:
     """The fixture's boxes, in {H}."""
-    R, N, c = pair.hole_radius, part.facets, part.chamfer
+    R, N, c = pair.hole_radius, part.facets, pair.chamfer
+    if c >= part.face_width:
+        raise ConfigError("geometry.chamfer", c, f"less than plant.face_width "
+                          f"({part.face_width:g} m)")  # fmt: skip
     depth = pair.hole_depth - c  # the straight bore under the chamfer
     half_t = 0.5 * part.face_width
     boxes = []
@@ -259,7 +256,7 @@ class MujocoPegHole:
         pair: The true peg and hole (radii, depth, base, friction; its ``stiffness`` is eq.
             8's and not used: the contact's stiffness is MuJoCo's).
         holder: The grip's stiffness at the grip point (None: :data:`RIGID`).
-        part: The bore's facets, chamfer, face width; the peg's length, grip and mass.
+        part: The bore's facets and face width; the peg's length, grip and mass.
         contact: MuJoCo's contact parameters.
         prune: Skip, each timestep, the hole's boxes the peg cannot touch in it (:meth:`step`;
             the same physics, False only to test that).
