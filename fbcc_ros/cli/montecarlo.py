@@ -263,6 +263,11 @@ def main(argv: list[str] | None = None) -> int:
                         help="draw eq. 8's k log-uniform in [LOW, HIGH] GPa per trial")
     parser.add_argument("--friction", type=float, nargs=2, metavar=("LOW", "HIGH"),
                         help="draw mu uniform in [LOW, HIGH] per trial")
+    parser.add_argument("--clearance-um", type=float, nargs=2, metavar=("LOW", "HIGH"),
+                        help="draw the radial clearance uniform in [LOW, HIGH] µm per trial")
+    parser.add_argument("--chamfer-mm", type=float, nargs=2, metavar=("LOW", "HIGH"),
+                        help="draw the 45° chamfer's width uniform in [LOW, HIGH] mm per trial "
+                        "(a scenario with geometry.rim: true)")
     parser.add_argument("--holder", type=float, nargs=2, metavar=("N_PER_M", "NM_PER_RAD"),
                         help="hold the peg in a holder of this lateral and angular stiffness "
                         "(overrides the scenario's holder; fbcc_ros/core/sim/holder.py)")
@@ -290,6 +295,12 @@ def main(argv: list[str] | None = None) -> int:
     laws = args.laws or list(sc.laws)
     stiffness_gpa = _range(parser, "--stiffness-gpa", args.stiffness_gpa, 1e-3, 1e3, "GPa")
     friction = _range(parser, "--friction", args.friction, 1e-3, 0.99, "")
+    clearance_um = _range(parser, "--clearance-um", args.clearance_um, 0.1, 500.0, "µm")
+    chamfer_mm = _range(parser, "--chamfer-mm", args.chamfer_mm, 0.0,
+                        0.999e3 * min(sc.plant.face_width, sc.geometry.hole_depth), "mm")
+    if chamfer_mm is not None and not sc.geometry.rim:
+        parser.error(f"--chamfer-mm needs a scenario whose pair has its rim: {args.scenario} "
+                     "has no geometry.rim: true")  # fmt: skip
     if args.seed < 0:
         parser.error(f"--seed={args.seed} is not allowed: expected an integer >= 0")
     for index in args.trial or ():
@@ -309,6 +320,9 @@ def main(argv: list[str] | None = None) -> int:
         stiffness=None if stiffness_gpa is None else (stiffness_gpa[0] * 1e9,
                                                       stiffness_gpa[1] * 1e9),
         friction=friction, feasible_force=feasible,
+        clearance=None if clearance_um is None else (clearance_um[0] * 1e-6,
+                                                     clearance_um[1] * 1e-6),
+        chamfer=None if chamfer_mm is None else (chamfer_mm[0] * 1e-3, chamfer_mm[1] * 1e-3),
         numbers=args.trial or range(args.first, args.first + args.trials),
     )  # fmt: skip
     if args.trial:
@@ -335,7 +349,8 @@ def main(argv: list[str] | None = None) -> int:
         "workers": args.workers, "scheduler": args.scheduler, "seconds": elapsed,
         "max_offset_mm": args.max_offset_mm,
         "max_tilt_deg": args.max_tilt_deg, "stiffness_gpa": stiffness_gpa,
-        "friction": friction, "feasible_force": feasible, "parts_redrawn": trials.redrawn,
+        "friction": friction, "clearance_um": clearance_um, "chamfer_mm": chamfer_mm,
+        "feasible_force": feasible, "parts_redrawn": trials.redrawn,
         "holder": None if sc.holder is None else [sc.holder.lateral, sc.holder.angular],
         "plant": dataclasses.asdict(sc.plant),
     }  # fmt: skip

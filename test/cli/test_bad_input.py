@@ -69,6 +69,12 @@ CASES: dict[str, tuple[Callable[..., int], Callable[[dict[str, str]], list[str]]
                                     f["a_file"] + "_n"], "--trials=1000000000"),
     "bringup, a negative seed": (
         bringup.main, lambda f: [SCENARIO, "--seed", "-1", "--no-record"], "--seed"),
+    "montecarlo, a chamfer drawn on a pair without its rim": (
+        montecarlo.main, lambda f: [SCENARIO, "--chamfer-mm", "0", "0.5", "--out",
+                                    f["a_file"] + "_c"], "--chamfer-mm needs"),
+    "montecarlo, a clearance range upside down": (
+        montecarlo.main, lambda f: [SCENARIO, "--clearance-um", "100", "10", "--out",
+                                    f["a_file"] + "_u"], "--clearance-um 100 10"),
     "montecarlo, a negative seed": (
         montecarlo.main, lambda f: [SCENARIO, "--seed", "-3", "--out", f["a_file"] + "_s"],
         "--seed"),

@@ -7,7 +7,11 @@ Each trial draws
 * the true radii: each of R and r moves uniformly within ± half the range of the diameters
   measured in one group of Table II, the group drawn per trial (:func:`mapping_study.perturbed`);
 * optionally the material: eq. 8's k log-uniform in ``stiffness`` = (low, high) [Pa] and mu
-  uniform in ``friction`` = (low, high); by default both stay nominal.
+  uniform in ``friction`` = (low, high); by default both stay nominal;
+* optionally the fit and the entry: the radial clearance R - r uniform in ``clearance`` =
+  (low, high) [m] (the peg's radius follows the drawn hole's), and the 45° chamfer's width
+  uniform in ``chamfer`` = (low, high) [m] (a pair with its rim, :attr:`PegHole.rim`). Each
+  draw is taken after the others, so a study without it draws the same parts as before.
 
 A part whose quasi-static push-in force (:meth:`PegHole.push_in_force` at L) exceeds
 ``feasible_force`` cannot be inserted by any controller within the force limit; when
@@ -85,6 +89,8 @@ def draw_trials(
     *,
     stiffness: tuple[float, float] | None = None,
     friction: tuple[float, float] | None = None,
+    clearance: tuple[float, float] | None = None,
+    chamfer: tuple[float, float] | None = None,
     feasible_force: float | None = None,
     numbers: Sequence[int] | None = None,
 ) -> Trials:
@@ -96,6 +102,8 @@ def draw_trials(
             seed that has it); N is then ignored.
         stiffness: (low, high) of a log-uniform k [Pa]; None keeps the nominal k.
         friction: (low, high) of a uniform mu; None keeps the nominal mu.
+        clearance: (low, high) of a uniform radial clearance [m]; None keeps the drawn radii.
+        chamfer: (low, high) of a uniform chamfer width [m]; None keeps the nominal's.
         feasible_force: Largest quasi-static push-in force at L [N] of a part kept; None keeps
             every part.
     """
@@ -108,9 +116,14 @@ def draw_trials(
     numbers = [_trial_number(i) for i in numbers]
     if not numbers or len(set(numbers)) != len(numbers):
         raise ConfigError("trials", numbers[:10], "one or more distinct trial numbers")
-    for name, bounds, low in (("stiffness", stiffness, 0.0), ("friction", friction, 0.0)):
-        if bounds is not None and not (low < bounds[0] <= bounds[1]):
-            raise ConfigError(name, list(bounds), f"(low, high) with {low:g} < low <= high")
+    if chamfer is not None and not nominal.rim:
+        raise ConfigError("chamfer", list(chamfer), "a pair with its rim (geometry.rim: true)")
+    for name, bounds, zero in (("stiffness", stiffness, False), ("friction", friction, False),
+                               ("clearance", clearance, False), ("chamfer", chamfer, True)):
+        if bounds is not None and not ((bounds[0] >= 0 if zero else bounds[0] > 0)
+                                       and bounds[0] <= bounds[1]):
+            allowed = "0 <= low <= high" if zero else "0 < low <= high"
+            raise ConfigError(name, list(bounds), f"(low, high) with {allowed}")
     initial = np.zeros((len(numbers), 5))
     geometries: list[PegHole] = []
     redrawn = 0
@@ -126,6 +139,10 @@ def draw_trials(
                 g = g.replace(stiffness=float(k))
             if friction is not None:
                 g = g.replace(friction=float(rng.uniform(*friction)))
+            if clearance is not None:
+                g = g.replace(peg_radius=g.hole_radius - float(rng.uniform(*clearance)))
+            if chamfer is not None:
+                g = g.replace(chamfer=float(rng.uniform(*chamfer)))
             if feasible_force is None or g.push_in_force() <= feasible_force:
                 break
             redrawn, tries = redrawn + 1, tries + 1

@@ -208,6 +208,28 @@ def test_drawn_materials_and_the_feasibility_cut() -> None:
         draw_trials(sc.geometry, 3, seed=1, stiffness=(1e9, 1e8))
 
 
+def test_drawn_clearances_and_chamfers_keep_every_other_draw() -> None:
+    """The clearance and the chamfer uniform within their bounds, the peg's radius from the
+    drawn hole's; the deviations, radii of the hole and materials those of the same study
+    without them (each draw is taken after the others)."""
+    sc = validate(paper_scenario("clearance"))
+    rim = sc.geometry.replace(rim=True)
+    plain = draw_trials(rim, 200, seed=2, friction=(0.1, 0.5))
+    t = draw_trials(rim, 200, seed=2, friction=(0.1, 0.5), clearance=(1e-5, 1e-4),
+                    chamfer=(0.0, 5e-4))  # fmt: skip
+    c = np.array([g.hole_radius - g.peg_radius for g in t.geometries])
+    w = np.array([g.chamfer for g in t.geometries])
+    assert 1e-5 <= c.min() and c.max() <= 1e-4 and c.std() > 2e-5
+    assert 0.0 <= w.min() and w.max() <= 5e-4 and w.std() > 1e-4
+    np.testing.assert_array_equal(t.initial, plain.initial)
+    for a, b in zip(plain.geometries, t.geometries, strict=True):
+        assert (a.hole_radius, a.friction, a.stiffness) == (b.hole_radius, b.friction, b.stiffness)
+    with pytest.raises(ConfigError, match="rim"):  # a chamfer needs the top face it cuts
+        draw_trials(sc.geometry, 3, seed=2, chamfer=(0.0, 5e-4))
+    with pytest.raises(ConfigError, match="clearance"):
+        draw_trials(rim, 3, seed=2, clearance=(0.0, 1e-4))
+
+
 def test_push_in_force_is_the_models_centred_axial_force() -> None:
     sc = validate(paper_scenario("interference"))
     g = sc.geometry
