@@ -40,13 +40,10 @@ import time
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 
 from fbcc_ros.cli.common import out_dir
+from fbcc_ros.cli.montecarlo_plots import METRICS, draw, draw_friction, draw_stiffness
 from fbcc_ros.cli.sim import SUMMARY_HEADER, summary_line, write_run
 from fbcc_ros.core.control.laws import LAWS
 from fbcc_ros.core.errors import ConfigError, command
@@ -64,16 +61,6 @@ from fbcc_ros.core.sim.plants.spec import PLANTS
 from fbcc_ros.core.sim.simulation import Outcome
 from fbcc_ros.core.sim.study_goals import failures, goals, missed_goals, time_goal
 from fbcc_ros.studies import trials_csv
-
-#: Metrics summarised by percentiles: (name, scale to the printed unit, unit).
-_METRICS = (
-    ("peak_fz", 1.0, "N"),
-    ("residual_force", 1.0, "N"),
-    ("residual_moment", 1.0, "N·m"),
-    ("tilt_overshoot", 180 / math.pi, "deg"),
-    ("tilt_misadjustment", 180 / math.pi, "deg"),
-    ("insertion_time", 1.0, "s"),
-)
 
 
 class ProgressBar:
@@ -115,7 +102,7 @@ def summarise(outcome: Outcome) -> dict[str, Any]:
         "holder_unconverged_steps": {"trials": int((outcome.holder_unconverged > 0).sum()),
                                      "max": int(outcome.holder_unconverged.max(initial=0))},
     }  # fmt: skip
-    for name, scale, unit in _METRICS:
+    for name, scale, unit in METRICS:
         v = getattr(outcome, name) * scale
         v = v[np.isfinite(v)]
         stats = {"median": float(np.median(v)), **{f"p{q}": float(np.percentile(v, q)) for q
@@ -142,78 +129,6 @@ def friction_accuracy(outcome: Outcome, trials: Trials) -> dict[str, Any] | None
             "abs_error_median": float(np.median(np.abs(err))),
             "abs_error_p95": float(np.percentile(np.abs(err), 95)),
             "abs_error_max": float(np.abs(err).max())}  # fmt: skip
-
-
-def draw_friction(trials: Trials, results: dict[str, Outcome], path: Path) -> None:
-    """The friction the lever measured against each part's μ, per law that measures one;
-    nothing is drawn when none did."""
-    mu = np.array([g.friction for g in trials.geometries])
-    measuring = {law: o for law, o in results.items() if np.isfinite(o.friction_estimate).any()}
-    if not measuring:
-        return
-    fig, ax = plt.subplots(figsize=(5.5, 5))
-    for law, o in measuring.items():
-        ok = np.isfinite(o.friction_estimate)
-        ax.plot(mu[ok], o.friction_estimate[ok], ".", ms=3,
-                label=f"{law}: measured on {int(ok.sum())}/{len(ok)}")  # fmt: skip
-    ax.plot([mu.min(), mu.max()], [mu.min(), mu.max()], "k--", lw=0.8, label="the part's μ")
-    ax.set(xlabel="the part's friction μ", ylabel="friction in the lever (eq. 24), at the end")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-def draw(results: dict[str, Outcome], path: Path) -> None:
-    fig, axes = plt.subplots(1, len(_METRICS), figsize=(4 * len(_METRICS), 3.6))
-    for ax, (name, scale, unit) in zip(axes, _METRICS, strict=True):
-        for law, o in results.items():
-            v = getattr(o, name) * scale
-            v = v[np.isfinite(v)]
-            rate = o.success.mean()
-            ax.hist(v, bins=40, alpha=0.6, label=f"{law} ({rate:.1%} success)")
-        ax.set(xlabel=f"{name} [{unit}]", ylabel="trials")
-        ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-def draw_stiffness(trials: Trials, results: dict[str, Outcome],
-                   missed_by_law: dict[str, list[list[str]]], deadline: float,
-                   path: Path) -> None:  # fmt: skip
-    """Success rate per ninth of the k range (log), and every trial's peak Fz and insertion
-    time against k, with the time goal ``deadline`` [s]; a trial that missed a goal
-    (:func:`missed_goals`) is ringed in the time panel, so the study's tail is seen where it
-    lies."""
-    k = np.array([g.stiffness for g in trials.geometries])
-    edges = np.geomspace(k.min(), k.max() * (1 + 1e-9), 10)
-    fig, (a1, a2, a3) = plt.subplots(1, 3, figsize=(16, 4))
-    for law, o in results.items():
-        idx = np.clip(np.digitize(k, edges) - 1, 0, len(edges) - 2)
-        rate = [o.success[idx == b].mean() if (idx == b).any() else np.nan
-                for b in range(len(edges) - 1)]  # fmt: skip
-        a1.semilogx(np.sqrt(edges[:-1] * edges[1:]), np.array(rate) * 100, "o-", label=law)
-        a2.loglog(k[o.success], o.peak_fz[o.success], ".", ms=2, label=f"{law}: assembled")
-        a2.loglog(k[~o.success], o.peak_fz[~o.success], "x", ms=4, label=f"{law}: failed")
-        missed = np.array([bool(why) for why in missed_by_law[law]])
-        (dots,) = a3.semilogx(k[o.success], o.insertion_time[o.success], ".", ms=2,
-                              label=f"{law}: assembled")  # fmt: skip
-        late = missed & o.success
-        a3.semilogx(k[late], o.insertion_time[late], "o", mfc="none", ms=7,
-                    color=dots.get_color(), label=f"{law}: missed a goal ({int(missed.sum())})")
-    a3.axhline(deadline, color="k", lw=0.8, ls="--", label=f"goal: {deadline:g} s")
-    a1.set(xlabel="contact stiffness k [Pa]", ylabel="assembled [%]", ylim=(0, 101))
-    a2.set(xlabel="contact stiffness k [Pa]", ylabel="peak Fz [N]")
-    a3.set(xlabel="contact stiffness k [Pa]", ylabel="insertion time [s]")
-    for ax in (a1, a2, a3):
-        ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def _range(parser: argparse.ArgumentParser, flag: str, value: list[float] | None,
@@ -268,6 +183,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--chamfer-mm", type=float, nargs=2, metavar=("LOW", "HIGH"),
                         help="draw the 45° chamfer's width uniform in [LOW, HIGH] mm per trial "
                         "(a scenario with geometry.rim: true)")
+    parser.add_argument("--grip", type=float, nargs=4,
+                        metavar=("N_PER_M_LO", "N_PER_M_HI", "NM_PER_RAD_LO", "NM_PER_RAD_HI"),
+                        help="draw each trial's grip log-uniform in these lateral and angular "
+                        "ranges (instead of --holder and the scenario's holder)")
     parser.add_argument("--holder", type=float, nargs=2, metavar=("N_PER_M", "NM_PER_RAD"),
                         help="hold the peg in a holder of this lateral and angular stiffness "
                         "(overrides the scenario's holder; fbcc_ros/core/sim/holder.py)")
@@ -308,6 +227,15 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"--trial {index} is not allowed: expected a trial number >= 0")
     if args.plant is not None:
         sc = sc.on_plant(args.plant)
+    grip = args.grip
+    if grip is not None:
+        if args.holder is not None:
+            parser.error("--grip draws each trial's grip: not with --holder, which fixes it")
+        try:
+            Holder(grip[0], grip[2])
+            Holder(grip[1], grip[3])
+        except ConfigError as exc:
+            parser.error(f"--grip {' '.join(f'{g:g}' for g in grip)}: {exc}")
     if args.holder is not None:
         try:
             sc = dataclasses.replace(sc, holder=Holder(*args.holder))
@@ -323,6 +251,7 @@ def main(argv: list[str] | None = None) -> int:
         clearance=None if clearance_um is None else (clearance_um[0] * 1e-6,
                                                      clearance_um[1] * 1e-6),
         chamfer=None if chamfer_mm is None else (chamfer_mm[0] * 1e-3, chamfer_mm[1] * 1e-3),
+        grip=None if grip is None else tuple(grip),
         numbers=args.trial or range(args.first, args.first + args.trials),
     )  # fmt: skip
     if args.trial:
@@ -352,6 +281,7 @@ def main(argv: list[str] | None = None) -> int:
         "friction": friction, "clearance_um": clearance_um, "chamfer_mm": chamfer_mm,
         "feasible_force": feasible, "parts_redrawn": trials.redrawn,
         "holder": None if sc.holder is None else [sc.holder.lateral, sc.holder.angular],
+        "grip": grip,
         "plant": dataclasses.asdict(sc.plant),
     }  # fmt: skip
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")

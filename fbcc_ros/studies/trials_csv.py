@@ -1,8 +1,9 @@
 """A Monte Carlo study's ``trials.csv``: written by ``fbcc-montecarlo``, read back by the studies
 that compare studies: a law's rows by trial number, a study run in parts (``--first``) joined
-into one, and the friction bins their tables share. A row per law and trial: its draws, its
-outcome's figures, its final features and why it ended (``stop_reason``, "" where it ran to its
-end; files written before it have none)."""
+into one, and the friction bins their tables share. A row per law and trial: its draws (its
+grip ``nan`` where the scenario's held every trial), its outcome's figures, its final features
+and why it ended (``stop_reason``, "" where it ran to its end; files written before it have
+none)."""
 
 from __future__ import annotations
 
@@ -30,17 +31,20 @@ def write_trials(trials: Trials, results: dict[str, Outcome], path: Path) -> Non
     with path.open("w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["law", "trial", "dx0", "dy0", "theta_x0", "theta_y0", "hole_radius",
-                    "peg_radius", "stiffness", "friction", "chamfer", "success", "insertion_time",
+                    "peg_radius", "stiffness", "friction", "chamfer", "grip_lateral",
+                    "grip_angular", "success", "insertion_time",
                     "peak_fz", "peak_force", "residual_force", "residual_moment", "tilt_overshoot",
                     "tilt_misadjustment", "force_limited", "friction_estimate",
                     *(f"final_{n}" for n in FEATURE_NAMES), "stop_reason"])  # fmt: skip
         for law, o in results.items():
             for i in range(len(trials)):
                 d, g = trials.initial[i], trials.geometries[i]
+                k = trials.holders[i] if trials.holders is not None else None
                 w.writerow([law, trials.numbers[i],
                             *(f"{v:.6g}" for v in (d[0], d[1], d[3], d[4])),
                             f"{g.hole_radius:.7g}", f"{g.peg_radius:.7g}",
                             f"{g.stiffness:.4g}", f"{g.friction:.4g}", f"{g.chamfer:.4g}",
+                            *((f"{k.lateral:.4g}", f"{k.angular:.4g}") if k else ("nan", "nan")),
                             int(o.success[i]),
                             f"{o.insertion_time[i]:.4g}", f"{o.peak_fz[i]:.4g}",
                             f"{o.peak_force[i]:.4g}", f"{o.residual_force[i]:.4g}",
@@ -85,7 +89,7 @@ def _stopped(row: dict[str, str]) -> bool:
 #: What a study's ``summary.json`` says of how its trials were drawn and run (``_run``): the
 #: parts of one study agree on all of it.
 DRAWN_WITH = ("seed", "max_offset_mm", "max_tilt_deg", "stiffness_gpa", "friction",
-              "clearance_um", "chamfer_mm", "feasible_force", "holder", "plant")
+              "clearance_um", "chamfer_mm", "grip", "feasible_force", "holder", "plant")
 
 
 def join_parts(paths: list[Path], law: str) -> Study:

@@ -75,6 +75,9 @@ CASES: dict[str, tuple[Callable[..., int], Callable[[dict[str, str]], list[str]]
     "montecarlo, a clearance range upside down": (
         montecarlo.main, lambda f: [SCENARIO, "--clearance-um", "100", "10", "--out",
                                     f["a_file"] + "_u"], "--clearance-um 100 10"),
+    "montecarlo, a grip drawn and fixed at once": (
+        montecarlo.main, lambda f: [SCENARIO, "--grip", "2e4", "1e6", "10", "3000", "--holder",
+                                    "5e4", "30", "--out", f["a_file"] + "_g"], "--grip draws"),
     "montecarlo, a negative seed": (
         montecarlo.main, lambda f: [SCENARIO, "--seed", "-3", "--out", f["a_file"] + "_s"],
         "--seed"),

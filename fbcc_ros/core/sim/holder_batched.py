@@ -34,7 +34,8 @@ def solve_rows(
     rows evaluated and the most iterations of a row. Arguments as ``solve_rows`` of
     :mod:`fbcc_ros.core.sim.holder_kernel`."""
     n = len(xr)
-    scale = tol / k  # physical units per scaled unit
+    # physical units per scaled unit, per row (k: one holder's (4,), or each row's (1 or N, 4))
+    scale = np.broadcast_to(tol / k, (n, 4))
 
     def features(qq: FloatArray) -> FloatArray:
         x = xr.copy()
@@ -77,7 +78,8 @@ def solve_rows(
                 qj = q.copy()
                 qj[:, j] += holder_kernel.FD_STEP[j]
                 rj = residual(qj)[2]
-                jac[need, :, j] = (rj[need] - r[need]) / (holder_kernel.FD_STEP[j] / scale[j])
+                step_j = holder_kernel.FD_STEP[j] / scale[need, j]  # in scaled units
+                jac[need, :, j] = (rj[need] - r[need]) / step_j[:, None]
             evals += 4 * n
             have[need] = fresh[need] = True
         step = np.zeros((n, 4))
@@ -96,7 +98,7 @@ def solve_rows(
         acc = act & (mt < (1.0 - holder_kernel.ARMIJO * t) * merit)  # False for NaN
         rej = act & ~acc
         if acc.any():
-            dz = (qt[acc] - q[acc]) / scale
+            dz = (qt[acc] - q[acc]) / scale[acc]
             jac[acc] = _broyden(jac[acc], dz, rt[acc] - r[acc])
             have[acc & (mt > holder_kernel.SLOW * merit)] = False  # slow: refresh next time
             q[acc], x[acc], w[acc] = qt[acc], xt[acc], wt[acc]

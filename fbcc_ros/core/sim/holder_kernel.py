@@ -174,7 +174,7 @@ def solve_rows(
     xr: FloatArray, h: FloatArray, q: FloatArray, back: FloatArray, jac: FloatArray,
     have: BoolArray, table: FloatArray, peg_top: bool, ca: FloatArray, sa: FloatArray,
     rim_ca: FloatArray, rim_sa: FloatArray, last: FloatArray, inv_dt: float, slide: FloatArray,
-    k: FloatArray, tol: FloatArray, max_iter: int,
+    k_rows: FloatArray, tol: FloatArray, max_iter: int,
     fd: FloatArray, x_out: FloatArray, w_out: FloatArray, conv: BoolArray,
     evals: NDArray[np.int64], iters: NDArray[np.int64],
 ) -> None:  # fmt: skip
@@ -193,6 +193,7 @@ def solve_rows(
         for m in range(contact_kernel.TABLE_ROWS):
             tab[m, 0] = table[m, c]
         qi, ji, li, si = q[i], jac[i], last[i], slide[i]
+        k = k_rows[i if k_rows.shape[0] > 1 else 0]  # the row's holder, or the one of all
         n_q = N_AXIAL if tab[8, 0] > 0.0 else N_LATERAL
         merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, rim_ca, rim_sa, li, si,
                               inv_dt, vbuf, work, k, tol, fbuf, wbuf, r, n_q)  # fmt: skip

@@ -51,6 +51,7 @@ small; rows that still fail are flagged, and the next step starts from their bes
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -100,7 +101,8 @@ class HolderSolver:
     afresh (so does :meth:`reset`).
 
     Args:
-        holder: The holder; ``None`` or :meth:`Holder.rigid` is rigid (delta = 0, one call).
+        holder: The holder; ``None`` or :meth:`Holder.rigid` is rigid (delta = 0, one call);
+            or one holder per row (a Monte Carlo's drawn grips), all compliant.
         grip: Where the response's moments are taken, for a response callable that is no
             ContactBatch (a ContactBatch or its bound ``response`` always uses
             :meth:`Grip.of` itself).
@@ -117,7 +119,7 @@ class HolderSolver:
 
     def __init__(
         self,
-        holder: Holder | None,
+        holder: Holder | Sequence[Holder] | None,
         grip: Grip | None = None,
         *,
         max_iter: int = 12,
@@ -125,16 +127,24 @@ class HolderSolver:
         moment_tol: float = 1e-5,
         extrapolate: bool = True,
     ) -> None:
-        if holder is not None and not isinstance(holder, Holder):
-            raise ConfigError("holder", holder, "a Holder or None (rigid)")
+        if holder is None or isinstance(holder, Holder):
+            holders = [holder or Holder.rigid()]
+        else:
+            holders = list(holder) if isinstance(holder, (list, tuple)) else []
+            if not holders or not all(isinstance(k, Holder) and not k.is_rigid
+                                      for k in holders):  # fmt: skip
+                raise ConfigError("holder", holder, "a Holder, None (rigid), or compliant "
+                                  "Holders, one per row")  # fmt: skip
         _check_options(max_iter, force_tol, moment_tol)
-        self.holder = holder if holder is not None else Holder.rigid()
+        #: the holder (the first of per-row ones: all compliant)
+        self.holder = holders[0]
         self.grip = grip
         self.max_iter = max_iter
         self.extrapolate = extrapolate
-        k = self.holder
         self._tol = np.array([force_tol, force_tol, moment_tol, moment_tol, force_tol])
-        self._k = np.array([k.lateral, k.lateral, k.angular, k.angular, k.axial])
+        # (1 or N, 5): each row's spring constants
+        self._k = np.array([[k.lateral, k.lateral, k.angular, k.angular, k.axial]
+                            for k in holders])
         # (N, 5) u_x, u_y, phi_x, phi_y, u_l of the last step (u_l only where the rim is)
         self._q: FloatArray | None = None
         self._q_prev: FloatArray | None = None  # and of the step before
@@ -176,6 +186,8 @@ class HolderSolver:
         contact = _contact_of(response)
         if contact is not None and len(contact) not in (1, n):
             raise InputError("x_robot", f"{n} rows", f"{len(contact)} rows, one per pair")
+        if len(self._k) not in (1, n):
+            raise InputError("x_robot", f"{n} rows", f"{len(self._k)} rows, one per holder")
         if self.holder.is_rigid:
             w = (contact.response(xr, _velocity(xr, last, dt)) if contact is not None
                  else holder_batched.call(response, xr))  # type: ignore[arg-type]  # fmt: skip
@@ -262,6 +274,7 @@ class HolderSolver:
         m = len(rows)
         whole = m == len(xr)
         table = contact.table if len(contact) == 1 or whole else contact.table[:, rows]
+        k = self._k if len(self._k) == 1 or whole else self._k[rows]
         qs, jac, have = (q, self._jac, self._have) if whole else (
             q[rows], self._jac[rows], self._have[rows])  # fmt: skip
         x, w = np.empty((m, 5)), np.empty((m, 5))
@@ -273,7 +286,8 @@ class HolderSolver:
             np.ascontiguousarray(xr[rows]), h[rows], qs, np.ascontiguousarray(back[rows]), jac,
             have, np.ascontiguousarray(table), contact.peg_top, ca, sa, rim_ca, rim_sa,
             np.ascontiguousarray(last[rows]), inv_dt, np.ascontiguousarray(slide),
-            self._k, self._tol, self.max_iter, holder_kernel.FD_STEP, x, w, conv, evals, iters,
+            np.ascontiguousarray(k), self._tol, self.max_iter, holder_kernel.FD_STEP, x, w,
+            conv, evals, iters,
         )  # fmt: skip
         if not whole:
             q[rows], self._jac[rows], self._have[rows] = qs, jac, have
@@ -293,7 +307,8 @@ class HolderSolver:
         lat = slice(0, holder_kernel.N_LATERAL)
         return holder_batched.solve_rows(xr, h, q[:, lat], back[:, lat],
                                          self._jac[:, lat, lat], self._have, response, grip,
-                                         self._k[lat], self._tol[lat], self.max_iter)  # fmt: skip
+                                         self._k[:, lat], self._tol[lat],
+                                         self.max_iter)  # fmt: skip
 
 
 def _velocity(x: FloatArray, last: FloatArray | None, dt: float) -> FloatArray | None:

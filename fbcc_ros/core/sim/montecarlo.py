@@ -11,7 +11,10 @@ Each trial draws
 * optionally the fit and the entry: the radial clearance R - r uniform in ``clearance`` =
   (low, high) [m] (the peg's radius follows the drawn hole's), and the 45° chamfer's width
   uniform in ``chamfer`` = (low, high) [m] (a pair with its rim, :attr:`PegHole.rim`). Each
-  draw is taken after the others, so a study without it draws the same parts as before.
+  draw is taken after the others, so a study without it draws the same parts as before;
+* optionally the grip: its lateral and angular stiffness log-uniform in ``grip`` = (lateral
+  low, lateral high, angular low, angular high) [N/m, N·m/rad] (:class:`~fbcc_ros.core.sim.
+  holder.Holder`, axial as shipped), in place of the scenario's holder; drawn last.
 
 A part whose quasi-static push-in force (:meth:`PegHole.push_in_force` at L) exceeds
 ``feasible_force`` cannot be inserted by any controller within the force limit; when
@@ -41,6 +44,7 @@ from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.mapping_study import perturbed
 from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.errors import ConfigError
+from fbcc_ros.core.sim.holder import Holder
 from fbcc_ros.core.sim.parallel import run_tasks
 from fbcc_ros.core.sim.scenario import Scenario
 from fbcc_ros.core.sim.simulation import Outcome, SimResult, simulate, state_sequence
@@ -57,20 +61,22 @@ BATCH = {"model": 128, "mujoco": 1}
 @dataclasses.dataclass(frozen=True)
 class Trials:
     """The random part of N trials: deviations (N, 5), true geometries, the study's seed and
-    each trial's number in the study, and how many parts were drawn again because they could
-    not be inserted (see the module doc)."""
+    each trial's number in the study, how many parts were drawn again because they could
+    not be inserted (see the module doc), and each trial's grip where it was drawn."""
 
     initial: FloatArray
     geometries: tuple[PegHole, ...]
     seed: int
     numbers: tuple[int, ...]
     redrawn: int = 0
+    holders: tuple[Holder, ...] | None = None
 
     def __len__(self) -> int:
         return len(self.initial)
 
     def part(self, s: slice) -> Trials:
-        return Trials(self.initial[s], self.geometries[s], self.seed, self.numbers[s])
+        return Trials(self.initial[s], self.geometries[s], self.seed, self.numbers[s],
+                      holders=None if self.holders is None else self.holders[s])
 
     def noise_seeds(self, scenario_seed: int) -> list[np.random.SeedSequence]:
         """Each trial's noise seed (module doc), a stream apart from every draw's: its spawn
@@ -91,6 +97,7 @@ def draw_trials(
     friction: tuple[float, float] | None = None,
     clearance: tuple[float, float] | None = None,
     chamfer: tuple[float, float] | None = None,
+    grip: tuple[float, float, float, float] | None = None,
     feasible_force: float | None = None,
     numbers: Sequence[int] | None = None,
 ) -> Trials:
@@ -104,6 +111,8 @@ def draw_trials(
         friction: (low, high) of a uniform mu; None keeps the nominal mu.
         clearance: (low, high) of a uniform radial clearance [m]; None keeps the drawn radii.
         chamfer: (low, high) of a uniform chamfer width [m]; None keeps the nominal's.
+        grip: (lateral low, lateral high, angular low, angular high) of a log-uniform grip
+            [N/m, N·m/rad]; None keeps the scenario's holder.
         feasible_force: Largest quasi-static push-in force at L [N] of a part kept; None keeps
             every part.
     """
@@ -124,8 +133,12 @@ def draw_trials(
                                        and bounds[0] <= bounds[1]):
             allowed = "0 <= low <= high" if zero else "0 < low <= high"
             raise ConfigError(name, list(bounds), f"(low, high) with {allowed}")
+    if grip is not None and not (0 < grip[0] <= grip[1] and 0 < grip[2] <= grip[3]):
+        raise ConfigError("grip", list(grip), "(lateral low, high, angular low, high), each "
+                          "0 < low <= high")  # fmt: skip
     initial = np.zeros((len(numbers), 5))
     geometries: list[PegHole] = []
+    holders: list[Holder] = []
     redrawn = 0
     for row, i in enumerate(numbers):
         rng = np.random.default_rng([seed, i])  # the trial's own draw (module doc)
@@ -153,7 +166,12 @@ def draw_trials(
                     "were all too tight: is the fit an interference too stiff to insert?)",
                 )  # fmt: skip
         geometries.append(g)
-    return Trials(initial, tuple(geometries), seed, tuple(numbers), redrawn)
+        if grip is not None:
+            lateral, angular = (10.0 ** rng.uniform(math.log10(lo), math.log10(hi))
+                                for lo, hi in (grip[:2], grip[2:]))  # fmt: skip
+            holders.append(Holder(float(lateral), float(angular)))
+    return Trials(initial, tuple(geometries), seed, tuple(numbers), redrawn,
+                  tuple(holders) if grip is not None else None)
 
 
 def _trial_number(value: Any) -> int:
@@ -178,7 +196,8 @@ def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float,
 
 def _run_part(sc: Scenario, law: str, trials: Trials) -> Outcome:
     outcome, _ = simulate(sc, law, initial=trials.initial, geometries=trials.geometries,
-                          record=False, noise_seeds=trials.noise_seeds(sc.seed))  # fmt: skip
+                          record=False, noise_seeds=trials.noise_seeds(sc.seed),
+                          holders=trials.holders)  # fmt: skip
     return outcome
 
 
@@ -191,9 +210,11 @@ def replay_trial(sc: Scenario, law: str, trials: Trials, number: int) -> SimResu
     row = trials.numbers.index(number)
     one = trials.part(slice(row, row + 1))
     outcome, traj = simulate(sc, law, initial=one.initial, geometries=one.geometries,
-                             noise_seeds=one.noise_seeds(sc.seed))  # fmt: skip
+                             noise_seeds=one.noise_seeds(sc.seed),
+                             holders=one.holders)  # fmt: skip
     assert traj is not None  # record=True
-    true = dataclasses.replace(sc, geometry=one.geometries[0], initial=one.initial[0])
+    true = dataclasses.replace(sc, geometry=one.geometries[0], initial=one.initial[0],
+                               holder=sc.holder if one.holders is None else one.holders[0])
     summary = outcome.summary(0)
     summary["state_sequence"] = state_sequence(traj, true.geometry)
     return SimResult(true, law, summary, traj)

@@ -63,6 +63,7 @@ from fbcc_ros.core.contact.segmentation import feature_state
 from fbcc_ros.core.control.laws import Law, make_law
 from fbcc_ros.core.control.supervisor import SafetyLimits
 from fbcc_ros.core.errors import ConfigError, FbccError
+from fbcc_ros.core.sim.holder import Holder
 from fbcc_ros.core.sim.plants.model import ModelContact
 from fbcc_ros.core.sim.plants.plant import Contact, LaggingRobot, Plant
 from fbcc_ros.core.sim.safety import CELL_GUARD, TrialSafety
@@ -72,24 +73,28 @@ from fbcc_ros.core.sim.scenario import Scenario, validate
 MakePlant = Callable[[Scenario, LaggingRobot, FloatArray, Sequence[PegHole]], Plant]
 
 
-def scenario_contact(sc: Scenario, n: int, pairs: Sequence[PegHole],
-                     dt: float | None = None) -> Contact:  # fmt: skip
+def scenario_contact(sc: Scenario, n: int, pairs: Sequence[PegHole], dt: float | None = None,
+                     holders: Sequence[Holder] | None = None) -> Contact:  # fmt: skip
     """The contact of the scenario's ``plant.type`` for ``n`` trials of ``pairs`` (one or n),
-    stepped every ``dt`` [s] (default: the scenario's rate): the model
+    stepped every ``dt`` [s] (default: the scenario's rate), held by the scenario's holder or
+    ``holders`` (one per trial): the model
     (:class:`~fbcc_ros.core.sim.plants.model.ModelContact`) or MuJoCo
     (:class:`~fbcc_ros.core.sim.plants.mujoco.MujocoContact`, imported only then)."""
+    dt = dt or 1.0 / sc.rate_hz
     if sc.plant.type == "model":
-        return ModelContact(n, pairs, sc.holder, dt or 1.0 / sc.rate_hz)
-    from fbcc_ros.core.sim.plants.mujoco import MujocoContact
+        return ModelContact(n, pairs, sc.holder if holders is None else holders, dt)
+    from fbcc_ros.core.sim.plants.mujoco import MujocoContact, scene_of
 
-    return MujocoContact.of(sc, n, pairs, dt or 1.0 / sc.rate_hz)
+    return MujocoContact(n, pairs, sc.holder if holders is None else holders, dt,
+                         *scene_of(sc))  # fmt: skip
 
 
 def scenario_plant(sc: Scenario, robot: LaggingRobot, deviation: FloatArray,
-                   pairs: Sequence[PegHole]) -> Plant:  # fmt: skip
+                   pairs: Sequence[PegHole],
+                   holders: Sequence[Holder] | None = None) -> Plant:  # fmt: skip
     """The scenario's plant: the robot and :func:`scenario_contact`."""
     return Plant(robot, deviation, sc.geometry, pairs,
-                 scenario_contact(sc, len(deviation), pairs))  # fmt: skip
+                 scenario_contact(sc, len(deviation), pairs, holders=holders))  # fmt: skip
 
 
 #: Fraction of the run at its end over which the residual responses are averaged.
@@ -246,6 +251,7 @@ def simulate(
     wrap: Callable[[Law], Any] | None = None,
     make_plant: MakePlant | None = None,
     noise_seeds: Sequence[np.random.SeedSequence] | None = None,
+    holders: Sequence[Holder] | None = None,
 ) -> tuple[Outcome, Trajectory | None]:
     """Run N trials of the closed loop in lockstep.
 
@@ -266,6 +272,8 @@ def simulate(
         noise_seeds: Each trial's noise seed (N of them) instead of
             ``seed``: its noise then does not depend on the batch around it (a Monte Carlo
             trial's, :mod:`fbcc_ros.core.sim.montecarlo`).
+        holders: Each trial's grip (N of them) instead of the scenario's holder (a Monte
+            Carlo's drawn grips), with the scenario's plant (no ``make_plant``).
     """
     dev = np.atleast_2d(sc.initial if initial is None else np.asarray(initial, dtype=float))
     n = len(dev)
@@ -281,7 +289,11 @@ def simulate(
         law = wrap(law)
     dt = 1.0 / sc.rate_hz
     robot = LaggingRobot(n, dt, sc.lag, sc.delay)
-    plant = (make_plant or scenario_plant)(sc, robot, dev, pairs)
+    if holders is not None and (make_plant is not None or len(holders) != n):
+        raise ConfigError("holders", f"{len(holders)} holders",
+                          f"{n}, one per trial, with the scenario's plant")  # fmt: skip
+    plant = (scenario_plant(sc, robot, dev, pairs, holders) if make_plant is None
+             else make_plant(sc, robot, dev, pairs))  # fmt: skip
     pose = robot.pose  # the robot's pose as features of the believed hole (moved in place)
     law.reset(pose)
     command = pose.copy()  # the supervisor starts from the measured pose

@@ -230,6 +230,29 @@ def test_rows_solve_independently() -> None:
     np.testing.assert_array_equal(batch.wrench[-1], 0.0)
 
 
+@pytest.mark.parametrize("compiled", [True, False])
+def test_each_row_may_have_its_own_holder(compiled: bool) -> None:
+    """Holders one per row (a Monte Carlo's drawn grips): each row settles as it would alone
+    in its own holder, on the compiled and on the numpy iteration."""
+    holders = [Holder(2e4, 10.0), Holder(1e5, 1e3), Holder(1e6, 3e3), Holder(5e4, 30.0)]
+    x = IN_CONTACT[[0, 1, 0, 1]]
+    contact = ContactBatch.of([clearance_pair(1e10)])
+    response = contact if compiled else (lambda f: contact.response(f))
+    grip = None if compiled else Grip.of(contact)
+    batch = HolderSolver(holders, grip, max_iter=40).step(x, response)
+    assert batch.converged.all()
+    deflections = []
+    for i, holder in enumerate(holders):
+        alone = HolderSolver(holder, grip, max_iter=40).step(x[i], response)
+        np.testing.assert_allclose(batch.features[i], alone.features, rtol=0, atol=1e-12)
+        deflections.append(np.abs(alone.delta).max())
+    assert len(set(deflections)) == len(holders)  # the holders differ in what they let give
+    with pytest.raises(InputError):
+        HolderSolver(holders).step(x[:3], contact)  # 4 holders for 3 rows
+    with pytest.raises(ConfigError):
+        HolderSolver([Holder(1e5, 1e3), Holder.rigid()])  # per-row holders are compliant
+
+
 def test_batched_iteration_rows_are_independent_and_a_failing_row_is_flagged() -> None:
     """In the numpy iteration, a row whose response is not finite does not converge and the
     others are unaffected; nothing raises."""

@@ -13,6 +13,7 @@ import yaml
 
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.paper import paper_scenario
+from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.holder import Holder
 from fbcc_ros.core.sim.montecarlo import draw_trials, replay_trial, run_montecarlo, wilson_interval
 from fbcc_ros.core.sim.scenario import validate
@@ -228,6 +229,34 @@ def test_drawn_clearances_and_chamfers_keep_every_other_draw() -> None:
         draw_trials(sc.geometry, 3, seed=2, chamfer=(0.0, 5e-4))
     with pytest.raises(ConfigError, match="clearance"):
         draw_trials(rim, 3, seed=2, clearance=(0.0, 1e-4))
+
+
+def test_drawn_grips_hold_each_trial_as_its_own_holder_would() -> None:
+    """--grip: each trial's grip log-uniform within its ranges, drawn after every other draw;
+    a batch held by them runs each trial as the scenario with that holder runs it alone."""
+    sc = scenario_io.load(ROOT / "config" / "scenarios" / "mujoco_clearance.yaml")
+    sc = sc.on_plant("model")
+    sc = dataclasses.replace(sc, duration=0.3)
+    plain = draw_trials(sc.geometry, 3, seed=4, friction=(0.1, 0.5))
+    t = draw_trials(sc.geometry, 3, seed=4, friction=(0.1, 0.5), grip=(2e4, 1e6, 10.0, 3e3))
+    np.testing.assert_array_equal(t.initial, plain.initial)
+    assert t.geometries == plain.geometries and t.holders is not None
+    assert all(2e4 <= k.lateral <= 1e6 and 10.0 <= k.angular <= 3e3 for k in t.holders)
+    many = draw_trials(sc.geometry, 400, seed=4, grip=(2e4, 1e6, 10.0, 3e3)).holders
+    assert many is not None  # log-uniform: about half below the ranges' geometric means
+    assert 0.4 < np.mean([k.lateral < math.sqrt(2e4 * 1e6) for k in many]) < 0.6
+    batch, _ = simulate(sc, "fbcc", initial=t.initial, geometries=t.geometries, record=False,
+                        noise_seeds=t.noise_seeds(sc.seed), holders=t.holders)  # fmt: skip
+    for i, holder in enumerate(t.holders):
+        one = t.part(slice(i, i + 1))
+        alone, _ = simulate(dataclasses.replace(sc, holder=holder), "fbcc",
+                            initial=one.initial, geometries=one.geometries, record=False,
+                            noise_seeds=one.noise_seeds(sc.seed))  # fmt: skip
+        np.testing.assert_allclose(batch.final_features[i], alone.final_features[0],
+                                   rtol=0, atol=1e-12)  # fmt: skip
+        assert batch.peak_force[i] == pytest.approx(alone.peak_force[0], rel=1e-9)
+    with pytest.raises(ConfigError, match="grip"):
+        draw_trials(sc.geometry, 3, seed=4, grip=(1e6, 2e4, 10.0, 3e3))
 
 
 def test_push_in_force_is_the_models_centred_axial_force() -> None:

@@ -31,14 +31,15 @@ class ModelContact:
     """Args:
     n: Trials.
     pairs: The true pairs, one or N.
-    holder: The holder (None: rigid).
+    holder: The holder (None: rigid), or one compliant holder per trial (N).
     dt: The control period [s], for the peg's sliding velocity (the rim's friction).
     """
 
-    def __init__(self, n: int, pairs: Sequence[PegHole], holder: Holder | None,
+    def __init__(self, n: int, pairs: Sequence[PegHole], holder: Holder | Sequence[Holder] | None,
                  dt: float) -> None:  # fmt: skip
         self.contact = ContactBatch.of(list(pairs))
-        if self.contact.has_rim and (holder is None or holder.is_rigid):
+        if self.contact.has_rim and (holder is None or (isinstance(holder, Holder)
+                                                        and holder.is_rigid)):  # fmt: skip
             raise ConfigError("holder", "rigid", "a compliant holder with the rim: a rigid "
                               "hand would press the peg into the top face by its whole "
                               "commanded depth")  # fmt: skip

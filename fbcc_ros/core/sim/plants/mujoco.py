@@ -29,17 +29,23 @@ class MujocoContact:
     """Args:
     n: Trials.
     pairs: The true pairs, one or N.
-    holder: The grip (None: the scene's stiffest, :data:`~.mujoco_scene.RIGID`).
+    holder: The grip (None: the scene's stiffest, :data:`~.mujoco_scene.RIGID`), or one per
+        trial (N).
     dt: The control period [s], a whole number of MuJoCo timesteps.
     part: The bore's facets and face width; the peg's length, grip and mass (the chamfer is
         each pair's, :attr:`PegHole.chamfer`).
     contact: MuJoCo's contact parameters.
     """
 
-    def __init__(self, n: int, pairs: Sequence[PegHole], holder: Holder | None, dt: float,
-                 part: Part | None = None, contact: Contact | None = None) -> None:  # fmt: skip
+    def __init__(self, n: int, pairs: Sequence[PegHole],
+                 holder: Holder | Sequence[Holder] | None, dt: float, part: Part | None = None,
+                 contact: Contact | None = None) -> None:  # fmt: skip
         true = list(pairs) if len(pairs) == n else [pairs[0]] * n
-        self.scenes = [MujocoPegHole(pair, holder, part, contact) for pair in true]
+        grips = [holder] * n if holder is None or isinstance(holder, Holder) else list(holder)
+        if len(grips) != n:
+            raise ConfigError("holder", f"{len(grips)} holders", f"1 or {n}, one per trial")
+        self.scenes = [MujocoPegHole(pair, grip, part, contact)
+                       for pair, grip in zip(true, grips, strict=True)]
         self.substeps = round(dt / self.scenes[0].dt)
         if abs(self.substeps * self.scenes[0].dt - dt) > 1e-9 * dt:
             raise ConfigError("rate_hz", 1.0 / dt, f"a period that is a whole number of "
@@ -47,12 +53,6 @@ class MujocoContact:
         self.acting = [p.acting_point_in_hole() for p in true]
         self.unconverged = np.zeros(n)
         self._placed = False
-
-    @classmethod
-    def of(cls, sc: Any, n: int, pairs: Sequence[PegHole], dt: float) -> MujocoContact:
-        """The contact of a scenario (:class:`~fbcc_ros.core.sim.scenario.Scenario`): its
-        holder, its ``plant`` section's scene (:func:`scene_of`)."""
-        return cls(n, pairs, sc.holder, dt, *scene_of(sc))
 
     def touch(self, hand: FloatArray) -> tuple[FloatArray, FloatArray]:
         """(:meth:`~fbcc_ros.core.sim.plants.plant.Contact.touch`) The first touch places each
