@@ -12,7 +12,7 @@ part assembled in 3.01 s while a part not assembled at all counts only against t
 slow assembly would weigh more than none. The peak Fz goals are judged on the tail: the 99th
 percentile over the study's trials (a median hid stiff tight parts peaking at 42-102 N while it
 read 11.8 N), of Fz on clearance parts and of Fz above the part's push-in force on interference
-parts.
+parts; and of the whole force |F| on clearance parts, where a grip's lateral push counts too.
 
 The issue states the time goal for its study, 3 s at 5 mm/s over 10 mm: the travel (2 s) and
 one second for the entry and the alignment. :func:`time_goal` keeps that second for any other
@@ -36,7 +36,8 @@ GOAL_SUCCESS = 0.999
 GOAL_RESIDUAL = 0.5  # [N]
 GOAL_TIME_ALLOWANCE = 1.0  # [s] beyond the travel depth / speed (3 s at 5 mm/s over 10 mm)
 GOAL_PEAK_FZ = 30.0  # [N] clearance: p99 of the peak; interference: p99 of the peak above push-in
-GOAL_PERCENTILE = 99.0  # the peak force's goal judges this percentile of the trials
+GOAL_PEAK_FORCE = 50.0  # [N] clearance: p99 of the peak |F|, lateral included (MuJoCo's goal)
+GOAL_PERCENTILE = 99.0  # the peak force's goals judge this percentile of the trials
 GOAL_OVERSHOOT = DEFAULT_TOLERANCE["tilt"]  # [rad] a tilt past zero beyond the success tolerance
 
 
@@ -98,14 +99,16 @@ def goals(outcome: Outcome, trials: Trials, missed: list[list[str]],
         "residual_force_N": _per_trial(ok, outcome.residual_force, GOAL_RESIDUAL),
         "insertion_time_s": _per_trial(ok, outcome.insertion_time, deadline),
     }  # fmt: skip
-    for label, mask, value in (("peak_fz_clearance_p99_N", ~interference, outcome.peak_fz),
-                               ("peak_fz_over_push_in_p99_N", interference, excess)):
+    for label, mask, value, limit in (
+            ("peak_fz_clearance_p99_N", ~interference, outcome.peak_fz, GOAL_PEAK_FZ),
+            ("peak_fz_over_push_in_p99_N", interference, excess, GOAL_PEAK_FZ),
+            ("peak_force_clearance_p99_N", ~interference, outcome.peak_force, GOAL_PEAK_FORCE)):
         if mask.any():
             tail = float(np.percentile(value[mask], GOAL_PERCENTILE))
             rows[label] = {"measured": tail, "median": float(np.median(value[mask])),
-                           "target": f"<= {GOAL_PEAK_FZ:g} at the {GOAL_PERCENTILE:g}th "
+                           "target": f"<= {limit:g} at the {GOAL_PERCENTILE:g}th "
                                      "percentile of the trials",
-                           "met": tail <= GOAL_PEAK_FZ, "trials": int(mask.sum())}  # fmt: skip
+                           "met": tail <= limit, "trials": int(mask.sum())}  # fmt: skip
     return rows
 
 
