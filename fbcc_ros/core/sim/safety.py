@@ -41,7 +41,8 @@ class TrialSafety:
                  guard: GuardLimits | None) -> None:  # fmt: skip
         self.limits, self.guard = limits, guard
         self.peg_top = pair.acting_point == "peg_top"
-        self._acting_depth = pair.hole_depth + pair.base_thickness
+        # a fixed acting point (hole_bottom), or the grip point that moves with the peg
+        self._acting = None if self.peg_top else pair.acting_point_in_hole()
         self._grip = Grip(pair.peg_length, None, pair.peg_radius)
         #: per trial: whether it ended, and why ("" while it runs)
         self.ended = np.zeros(n, dtype=bool)
@@ -52,13 +53,14 @@ class TrialSafety:
     def wrench_about_origin(self, response: FloatArray, features: FloatArray) -> FloatArray:
         """The wire wrench in {H} about its origin (N, 6) of responses (N, 5) about the pair's
         acting point, for a peg at ``features`` (the grip point of ``peg_top``):
-        ``f = (Fx, Fy, -Fz)``, ``tau_O = tau_A + p_A x f`` (mz: the model has none about A)."""
+        ``f = (Fx, Fy, -Fz)``, ``tau_O = tau_A + p_A x f`` (mz: the model has none about A):
+        :func:`~fbcc_ros.core.compensation.wrench.wrench_from_response` for every row at once,
+        each with its own point."""
         f = np.column_stack([response[:, 0], response[:, 1], -response[:, 2]])
-        if self.peg_top:
+        if self._acting is None:
             p = np.column_stack(grip_point(features, self._grip))
         else:
-            p = np.zeros((len(response), 3))
-            p[:, 2] = -self._acting_depth
+            p = np.broadcast_to(self._acting, (len(response), 3))
         tau = np.column_stack([response[:, 3], response[:, 4], np.zeros(len(response))])
         return np.hstack([f, tau + np.cross(p, f)])
 
