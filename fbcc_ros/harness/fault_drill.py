@@ -266,7 +266,7 @@ DRILLS: dict[str, Drill] = {
         _restart("dynamic_compensation"), "refused", resume=True),
     "deadband-param": Drill("the compensation's dead band set to [200 N, 20 N·m] while running",
                             lambda run, w, b: _set(run, w, "dynamic_compensation", "deadband",
-                                                   [200.0, 20.0]), "held"),
+                                                   [200.0, 20.0]), "refused"),
     "lowpass-param": Drill("the compensation's low-pass set to 1 Hz while running",
                            lambda run, w, b: _set(run, w, "dynamic_compensation", "lowpass_hz",
                                                   1.0), "recovered"),

@@ -17,7 +17,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from geometry_msgs.msg import WrenchStamped
+from geometry_msgs.msg import PoseStamped, WrenchStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
@@ -28,6 +28,7 @@ from fbcc_ros.pipeline.compensation import TABLE, CompensationStage, needs_robot
 from fbcc_ros.pipeline.lateral_watch import deadband_warning
 from fbcc_ros.pipeline.parameters import frame_id
 from fbcc_ros.ros import topics
+from fbcc_ros.ros.cdr import decode_pose
 from fbcc_ros.ros.convert import efforts_from_cdr, joints_from_cdr, wrench_from_cdr, wrench_to_cdr
 from fbcc_ros.ros.diagnostics import counter_report, publish_diagnostics
 from fbcc_ros.ros.inputs import subscribe_input
@@ -56,6 +57,8 @@ class DynamicCompensationNode(Node):
         self.out_guard = Outlet(self.create_publisher(String, topics.GUARD, topics.PHASE_QOS),
                                 latched=True)
         self.create_subscription(String, topics.REARM, self.on_rearm, 10)
+        # where the peg is (the kinematics' features): a tare is refused while it is in the hole
+        self.create_subscription(PoseStamped, topics.FEATURES, self.on_features, 10, raw=True)
         self._publish_bias(self.get_clock().now().nanoseconds * 1e-9)
         # the inputs (their topics and QoS transport settings: the stage has none)
         joints, joints_qos = values["joint_states_topic"], values["joint_states_qos"]
@@ -124,6 +127,13 @@ class DynamicCompensationNode(Node):
             self.get_logger().warn(f"joint state rejected: {exc}", throttle_duration_sec=1.0)
             return
         self._publish(self.stage.measured_torques(stamp, q, dq, effort, received=self.now()))
+
+    def on_features(self, data: bytes) -> None:
+        try:
+            _, _, (_, _, z, *_) = decode_pose(data)
+        except FbccError:
+            return  # the controller says it; the tare keeps the last place heard
+        self.stage.peg(z)
 
     def on_source(self, problem: str) -> None:
         """A second publisher on an input (:mod:`fbcc_ros.ros.sources`): the guard trips."""

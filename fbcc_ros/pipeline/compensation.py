@@ -25,6 +25,7 @@ from fbcc_ros.core.compensation.wrench_guard import GuardLimits, WrenchGuard
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.kinematics.robot import pose
 from fbcc_ros.pipeline.kinematics import CELL, hole_from, robot_from
+from fbcc_ros.pipeline.lateral_watch import RESOLVE_FORCE, deadband_warning
 from fbcc_ros.pipeline.parameters import HOLE_FRAME, INPUT_QOS, JOINT_STATES, Param
 
 
@@ -156,14 +157,25 @@ class CompensationStage:
         self.robot = robot if self.setup.placement == "wrist" else None
         self.comp = Compensator(self.setup, self.robot)
         self._filters = (values["lowpass_hz"], values["deadband"])
+        self._startup_band = tuple(values["deadband"])
         self._untared = self.setup.tare_samples > 0
         self.just_tared = False
         self.just_tripped = False
         self._tripped_said = False
 
     def apply(self, values: dict[str, Any]) -> None:
-        """The runtime parameters (``lowpass_hz``, ``deadband``)."""
-        self._filters = (values["lowpass_hz"], values["deadband"])
+        """The runtime parameters (``lowpass_hz``, ``deadband``). A dead band that would hide
+        the lateral forces the law aligns with (:func:`~fbcc_ros.pipeline.lateral_watch.
+        deadband_warning`) is refused (ConfigError) unless it is no wider than at start-up:
+        the law would go on pushing the peg in, blind to them."""
+        band = values["deadband"]
+        if (deadband_warning(tuple(band), None, "deadband")
+                and any(b > s for b, s in zip(band, self._startup_band, strict=True))):
+            raise ConfigError("deadband", list(band), f"a force band of at most "
+                              f"{RESOLVE_FORCE:g} N, or no wider than at start-up "
+                              f"{list(self._startup_band)}, while running (a wider band hides "
+                              "the lateral forces the law aligns with)")
+        self._filters = (values["lowpass_hz"], band)
         self.comp.set_filters(*self._filters)
 
     def retare(self, samples: int, bias: Sequence[float] | None = None) -> None:
@@ -173,10 +185,17 @@ class CompensationStage:
         setup = dataclasses.replace(self.setup, tare_samples=tare)
         if bias is not None:
             setup = dataclasses.replace(setup, bias=tuple(bias))
+        depth = self.comp.peg_depth
         self.comp = Compensator(setup, self.robot)
         self.comp.set_filters(*self._filters)  # as set while running
+        self.comp.peg_depth = depth
         self._untared = tare > 0
         self._tripped_said = False
+
+    def peg(self, peg_in_hole_z: float) -> None:
+        """The peg's tip height over the hole's top face [m] (``fbcc/features``' z): a tare
+        is refused while it is in the hole."""
+        self.comp.peg_depth = -float(peg_in_hole_z)
 
     def rearm(self) -> str | None:
         """A fresh wrench guard (the controller's reset acknowledged the trip); returns the

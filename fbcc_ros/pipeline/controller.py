@@ -180,7 +180,8 @@ class ControllerStage:
         the peg's pose in {H} (the held one outside an insertion; None before the first)."""
         self.input_rate.sample(stamp)
         self.response = response_from_wrench(wrench, self.acting_point)
-        self.lateral.sample(self.response)
+        if self.lateral.sample(self.response) and self.sup.active:
+            self.sup.fault(f"blind: {self.lateral.warning()}", now)
         command = self.sup.on_response(now, self.response, stamp)
         self._periods += 1
         self._feed_state(stamp)

@@ -37,7 +37,7 @@ REASONS = {
     "controller-restart": ("no fault; phase inserted", GHOST),
     "kinematics-restart": ("no fault; phase inserted", "stale features", GHOST),
     "tare-under-load": ("fbcc/start refused: no recent compensated wrench", "tare refused"),
-    "deadband-param": ("wrench guard: |f|",),
+    "deadband-param": ("a force band of at most 0.5 N",),
     "lowpass-param": ("no fault; phase inserted",),
     "max-step-param": ("at most its start-up value",),
     "start-after-fault": ("acknowledge it with reset first",),

@@ -1,9 +1,10 @@
-"""The compensation stage's re-arm: after a refused tare it tares again; after a trip in contact
-it keeps the bias it has."""
+"""The compensation stage: after a refused tare it tares again; after a trip in contact
+it keeps the bias it has; a dead band that would blind the law is refused while running."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from fbcc_ros.pipeline import compensation
 from fbcc_ros.pipeline.parameters import resolve
@@ -36,6 +37,21 @@ def test_a_refused_tare_is_taken_again_after_the_rearm() -> None:
     assert stage.just_tared is False and not stage.comp.guard.tripped
 
 
+def test_a_tare_with_the_peg_heard_in_the_hole_is_refused_until_it_is_out() -> None:
+    """A gentle load (under max_tare) with the peg 4 mm in (fbcc/features' z -4 mm): refused,
+    and again after a rearm while it stays in; taken once the peg is heard out."""
+    gentle = np.array([0.0, 0.0, -12.0, 0.0, 0.0, 0.0])
+    stage = _stage(tare_samples=20)
+    stage.peg(-4e-3)
+    assert all(o is None for o in _feed(stage, 0, 30, gentle))
+    assert "the peg's tip is 4 mm in the hole" in str(stage.rearm())
+    assert all(o is None for o in _feed(stage, 30, 30, gentle)) and stage.comp.guard.tripped
+    stage.peg(2e-3)  # withdrawn, 2 mm over the top face
+    stage.rearm()
+    out = _feed(stage, 60, 30, gentle)
+    assert all(o is not None for o in out[20:]) and not stage.comp.guard.tripped
+
+
 def test_a_rearm_after_a_trip_in_contact_keeps_the_bias() -> None:
     stage = _stage(tare_samples=20)
     _feed(stage, 0, 20, np.array([2.0, 0, 0, 0, 0, 0]))
@@ -44,3 +60,24 @@ def test_a_rearm_after_a_trip_in_contact_keeps_the_bias() -> None:
     out = _feed(stage, 21, 5, np.array([12.0, 0, 0, 0, 0, 0]))
     assert all(o is not None for o in out)
     np.testing.assert_allclose(out[-1].wrench[:3] @ out[-1].wrench[:3], 100.0)  # 12 - 2 N
+
+
+def test_a_dead_band_that_would_blind_the_law_is_refused_while_running() -> None:
+    """Widening the dead band past the lateral forces an insertion ends with is refused at
+    runtime (the law would push in blind); narrower, or back to its start-up width, applies."""
+    from fbcc_ros.core.errors import ConfigError
+    from fbcc_ros.pipeline.lateral_watch import RESOLVE_FORCE
+
+    values = resolve("dynamic_compensation", compensation.TABLE, {"deadband": [0.2, 0.01]})
+    stage = compensation.CompensationStage(values)
+    with pytest.raises(ConfigError, match=r"deadband.*\[200.0, 20.0\].*at most 0.5 N"):
+        stage.apply({**values, "deadband": [200.0, 20.0]})
+    assert stage._filters[1] == [0.2, 0.01]
+    stage.apply({**values, "deadband": [RESOLVE_FORCE, 0.01]})
+    assert stage._filters[1] == [RESOLVE_FORCE, 0.01]
+    # a cell started with a wide band (warned of at start-up) may go back to it
+    wide = resolve("dynamic_compensation", compensation.TABLE, {"deadband": [2.0, 0.5]})
+    started_wide = compensation.CompensationStage(wide)
+    started_wide.apply({**wide, "deadband": [0.0, 0.0]})
+    started_wide.apply(wide)
+    assert started_wide._filters[1] == [2.0, 0.5]

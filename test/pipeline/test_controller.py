@@ -94,3 +94,37 @@ def test_the_state_filters_k_is_the_scenarios_or_a_given_range() -> None:
     for bad in ([1e9, 1e8], [0.0, 1e9], [1e9], [1e8, float("inf")]):
         with pytest.raises(ConfigError, match=r"state_stiffness.*0 < low <= high \[Pa\]"):
             stage(bad)
+
+
+@pytest.mark.parametrize("banded", [True, False])
+def test_a_dead_band_that_blinds_the_law_in_contact_faults_it(banded: bool) -> None:
+    """While inserting, a window of contact samples whose lateral components read exactly zero
+    (a dead band over them) faults the controller and holds the arm; the same contact through
+    a sensor's noise does not."""
+    import numpy as np
+    import pinocchio as pin
+
+    from fbcc_ros.core.control.phase import Phase
+    from fbcc_ros.pipeline.lateral_watch import WINDOW
+
+    stage = controller.ControllerStage(resolve("fbcc_controller", controller.TABLE, {
+        "state_rate_hz": 0.0}))  # fmt: skip
+    rng = np.random.default_rng(3)
+    peg = stage.pose(np.array([0.0, 0.0, 1e-3, 0.0, 0.0]))
+    assert peg is not None
+    t = 0.0
+    for k in range(2 * WINDOW):
+        t = k * stage.sup.dt
+        stage.features(t, pin.SE3(peg), t)
+        wrench = np.zeros(6)
+        wrench[2] = 20.0  # pressing, in contact
+        if not banded:
+            wrench[[0, 1, 3, 4]] = rng.normal(0.0, 0.05, 4)
+        stage.wrench(t, t, wrench)
+        if k == 5:
+            assert stage.sup.start(t)[0]
+    if banded:
+        assert stage.sup.phase == Phase.FAULT and stage.sup.reason.startswith("blind: ")
+        assert "dead band" in stage.sup.reason
+    else:
+        assert stage.sup.active, stage.sup.reason

@@ -185,6 +185,9 @@ class Compensator:
         self.guard = WrenchGuard(setup.guard)
         #: the guard refused the tare (the configured bias stays)
         self.tare_refused = False
+        #: how deep the peg's tip was last heard in the hole [m] (None: not heard), which the
+        #: tare's check takes (:meth:`WrenchGuard.tare`)
+        self.peg_depth: float | None = None
         #: the output's noise floor measured by the tare: the standard deviation of each
         #: component (fx, fy, fz, mx, my, mz in {H}, as output, before the output's filters) of
         #: the readings averaged into the bias; None before a tare (or without one)
@@ -356,7 +359,7 @@ class Compensator:
         self.counts["taring"] += 1
         if len(self._tare) == self.setup.tare_samples:
             measured = np.mean(self._tare, axis=0)  # b = mean(reading - payload wrench)
-            if self.guard.tare(measured, self._bias):  # else tripped: the bias stays
+            if self.guard.tare(measured, self._bias, self.peg_depth):  # else tripped
                 self._bias = measured
                 if len(self._tare) > 1:  # their spread, as output: C_H = T C_S Tᵀ
                     spread = to_hole @ np.cov(np.array(self._tare).T) @ to_hole.T

@@ -16,7 +16,8 @@ far past it, and it has no moment limit. The guard acts in the compensation, on 
   (the guard reads low by as much): 30 N at the defaults, against 8 N of stopping and up to
   20 N of tare;
 * **a tare only when it is safe**: the bias a tare measures within ``max_tare`` of the
-  configured one (a tare under load, the peg in the hole, would take the contact for a bias).
+  configured one (a tare under load, the peg in the hole, would take the contact for a bias),
+  and, where the compensation hears the peg's pose, the peg out of the hole.
 
 The first violation trips it, with the reason; it stays tripped (the compensation publishes no
 more wrenches, so the controller, told of the trip, also sees its input go stale). Its limits are
@@ -32,6 +33,10 @@ import numpy as np
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.errors import ConfigError
+
+#: The deepest the peg's tip may be in the hole while the sensor tares [m]: deeper, it may
+#: touch the wall (a start over the hole, the tip at its top face, is 0).
+TARE_DEPTH = 5e-4
 
 
 @dataclasses.dataclass(frozen=True)
@@ -107,9 +112,17 @@ class WrenchGuard:
         reason = contact_excess(np.asarray(wrench, dtype=float)[None], self.limits)[0]
         return self.trip(reason) if reason else True
 
-    def tare(self, measured: FloatArray, configured: FloatArray) -> bool:
+    def tare(self, measured: FloatArray, configured: FloatArray,
+             peg_depth: float | None = None) -> bool:  # fmt: skip
         """A tare's bias against the configured one: False, and tripped, if they differ by more
-        than ``max_tare``."""
+        than ``max_tare``, or if the peg's tip was heard deeper than :data:`TARE_DEPTH` in the
+        hole (``peg_depth`` [m], None: not heard). A load under ``max_tare`` (a part pushed in
+        gently) passes the first check; the peg's place does not."""
+        if peg_depth is not None and peg_depth > TARE_DEPTH:
+            return self.trip(
+                f"tare refused: the peg's tip is {peg_depth * 1e3:.3g} mm in the hole (a tare "
+                f"is taken with it out, at most {TARE_DEPTH * 1e3:g} mm in): its contact would "
+                "be taken for a bias")
         d = measured - configured
         df, dm = float(np.linalg.norm(d[:3])), float(np.linalg.norm(d[3:]))
         if df > self.limits.max_tare[0] or dm > self.limits.max_tare[1]:

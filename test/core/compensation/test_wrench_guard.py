@@ -89,6 +89,27 @@ def test_a_tare_under_load_is_refused_and_trips_the_guard() -> None:
             np.testing.assert_allclose(comp.bias, [1.0, 0, 0, 0, 0, 0], atol=0.02)
 
 
+def test_a_gentle_load_under_max_tare_is_refused_where_the_peg_is_heard_in_the_hole() -> None:
+    """A part pushed in gently loads the sensor by less than ``max_tare`` (16 N here): the
+    bias check alone takes it. Heard 4 mm in the hole, the tare is refused; heard at the top
+    face (where an insertion starts) or up to TARE_DEPTH in, or not heard, it is taken."""
+    from fbcc_ros.core.compensation.wrench_guard import TARE_DEPTH
+
+    load = np.array([-1.8, 0.0, -16.0, 0.0, 0.0, 0.0])
+    readings = list(np.random.default_rng(4).normal(0.0, 0.02, (25, 6)) + load)
+    for depth, refused in ((4e-3, True), (0.0, False), (TARE_DEPTH, False), (None, False)):
+        comp = Compensator(SensorSetup(tare_samples=20))
+        comp.peg_depth = depth
+        out = _feed(comp, readings)
+        assert comp.guard.tripped == refused == comp.tare_refused, depth
+        if refused:
+            assert "tare refused: the peg's tip is 4 mm in the hole" in str(comp.guard.reason)
+            assert all(o is None for o in out[20:])
+            np.testing.assert_array_equal(comp.bias, np.zeros(6))
+        else:
+            np.testing.assert_allclose(comp.bias, load, atol=0.02)
+
+
 def test_a_second_source_interleaved_trips_it_and_its_zeros_are_not_the_wrench() -> None:
     """A stray publisher of zeros stamped 30 ms ahead between the sensor's readings of a 50 N
     contact: the real readings are refused as out of order, and within the window the share of
