@@ -13,9 +13,10 @@ While it measures, the observer listens only to what the figures need (joint com
 commands, the phase), not to the truth, compensated wrenches and features the bringup watches:
 the instrument should load the loop it measures as little as it can.
 
-The ``fbcc`` chain runs the scenario's law (Table I label 3) or, with ``robust``, the same
-scenario with the stiffness-robust law (identification, guard, axis insertion; ``loop_delay``
-0.05 s, as the hardware-free cell states it), so that the two laws' cost to the loop compare.
+The ``fbcc`` chain runs the scenario's law (the stiffness-robust default: identification,
+guard, axis insertion; ``loop_delay`` 0.05 s, as the hardware-free cell states it) or, with
+``table_i``, the same scenario on Table I label 3, so that the two laws' cost to the loop
+compare.
 
 - cycles delivered: joint commands received / periods of the run (rate × seconds);
 - latency: sensor stamp → TCP command received, p50 and p99 (both on the system clock);
@@ -41,8 +42,8 @@ from fbcc_ros.harness.cell_run import CellRun, NodeSpec
 from fbcc_ros.ros import topics
 
 SCENARIO = "config/scenarios/bringup_interference.yaml"
-#: ``controller.params`` of the robust run: the robust law with the cell's stated loop delay.
-ROBUST_PARAMS = {"loop_delay": 0.05}
+#: ``controller.params`` of the ``table_i`` run: the paper's law at its label 3.
+TABLE_I_PARAMS = {"label": 3}
 
 
 class BareCompensation(Node):
@@ -112,22 +113,22 @@ def measure(
     chain: str,
     seconds: float,
     processes: bool = False,
-    robust: bool = False,
+    table_i: bool = False,
     recorder: bool = False,
     rate_hz: float | None = None,
     chained: bool = True,
 ) -> LoopFigures:
     """Runs the ``bare`` or the ``fbcc`` chain for ``seconds`` at the scenario's rate (or
-    ``rate_hz``); with ``robust``, the ``fbcc`` chain runs the stiffness-robust law (module
-    doc); with ``recorder``, an fbcc_record in its own process records the cell's topics, as
-    the bringup does; ``chained=False`` passes every message through DDS even in one process
+    ``rate_hz``); with ``table_i``, the ``fbcc`` chain runs Table I label 3 (module doc);
+    with ``recorder``, an fbcc_record in its own process records the cell's topics, as the
+    bringup does; ``chained=False`` passes every message through DDS even in one process
     (:class:`CellRun`'s ``chain``)."""
     from fbcc_ros.core.sim.scenario import find as find_scenario
 
     path = find_scenario(SCENARIO)
     data = yaml.safe_load(path.read_text())
-    if robust:
-        data["controller"] = {"type": "fbcc", "params": ROBUST_PARAMS}
+    if table_i:
+        data["controller"] = {"type": "fbcc", "params": TABLE_I_PARAMS}
     if rate_hz is not None:
         data["rate_hz"] = rate_hz
     with tempfile.TemporaryDirectory() as folder:
