@@ -192,6 +192,9 @@ def main(argv: list[str] | None = None) -> int:
                         "(overrides the scenario's holder; fbcc_ros/core/sim/holder.py)")
     parser.add_argument("--plant", choices=PLANTS, default=None,
                         help="the plant (default: the scenario's plant.type, model if absent)")
+    parser.add_argument("--rate-hz", type=float, default=None,
+                        help="control rate of the trials (the stack's: 100, 250, 1000) "
+                        "instead of the scenario's rate_hz")
     parser.add_argument("--all-parts", action="store_true",
                         help="keep parts whose push-in force exceeds 2/3 of the force limit")
     parser.add_argument("--trial", type=int, nargs="+", metavar="N",
@@ -227,6 +230,12 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"--trial {index} is not allowed: expected a trial number >= 0")
     if args.plant is not None:
         sc = sc.on_plant(args.plant)
+    if args.rate_hz is not None:
+        low, high = scenario_io.RATE_HZ
+        if not low <= args.rate_hz <= high:
+            parser.error(f"--rate-hz={args.rate_hz:g} is not allowed: expected {low:g} to "
+                         f"{high:g} Hz")
+        sc = dataclasses.replace(sc, rate_hz=args.rate_hz)
     grip = args.grip
     if grip is not None:
         if args.holder is not None:
@@ -282,7 +291,7 @@ def main(argv: list[str] | None = None) -> int:
         "feasible_force": feasible, "parts_redrawn": trials.redrawn,
         "holder": None if sc.holder is None else [sc.holder.lateral, sc.holder.angular],
         "grip": grip,
-        "plant": dataclasses.asdict(sc.plant),
+        "plant": dataclasses.asdict(sc.plant), "rate_hz": sc.rate_hz,
     }  # fmt: skip
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     trials_csv.write_trials(trials, results, out / "trials.csv")

@@ -78,6 +78,9 @@ CASES: dict[str, tuple[Callable[..., int], Callable[[dict[str, str]], list[str]]
     "montecarlo, a grip drawn and fixed at once": (
         montecarlo.main, lambda f: [SCENARIO, "--grip", "2e4", "1e6", "10", "3000", "--holder",
                                     "5e4", "30", "--out", f["a_file"] + "_g"], "--grip draws"),
+    "montecarlo, a rate no scenario may state": (
+        montecarlo.main, lambda f: [SCENARIO, "--rate-hz", "5", "--out", f["a_file"] + "_r"],
+        "--rate-hz=5 is not allowed: expected 10 to 100000 Hz"),
     "montecarlo, a negative seed": (
         montecarlo.main, lambda f: [SCENARIO, "--seed", "-3", "--out", f["a_file"] + "_s"],
         "--seed"),

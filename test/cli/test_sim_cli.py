@@ -123,6 +123,28 @@ def test_montecarlo_writes_rates_with_intervals(tmp_path: Path) -> None:
     assert (tmp_path / "histograms.png").stat().st_size > 10_000
 
 
+def test_montecarlo_at_a_stacks_rate_runs_as_the_scenario_stating_it(tmp_path: Path) -> None:
+    """``--rate-hz 100`` runs the trials as a copy of the scenario with ``rate_hz: 100`` does,
+    trial for trial, and the summary says the rate."""
+    import yaml
+
+    source = SCENARIOS / "robust_clearance.yaml"
+    data = yaml.safe_load(source.read_text())
+    data["rate_hz"] = 100
+    copy = tmp_path / "at_100.yaml"
+    copy.write_text(yaml.safe_dump(data))
+    common = ["--trials", "4", "--workers", "1", "--laws", "fbcc", "--stiffness-gpa", "1", "100"]
+    assert montecarlo.main([str(source), "--rate-hz", "100", "--out", str(tmp_path / "flag"),
+                            *common]) == 0  # fmt: skip
+    assert montecarlo.main([str(copy), "--out", str(tmp_path / "file"), *common]) == 0
+    assert json.loads((tmp_path / "flag" / "summary.json").read_text())["_run"]["rate_hz"] == 100
+    rows = [(tmp_path / run / "trials.csv").read_text() for run in ("flag", "file")]
+    assert rows[0] == rows[1]
+    at_1k = tmp_path / "at_1k"
+    assert montecarlo.main([str(source), "--out", str(at_1k), *common]) == 0
+    assert (at_1k / "trials.csv").read_text() != rows[0]  # the rate acts
+
+
 def test_montecarlo_rejects_bad_counts(tmp_path: Path) -> None:
     with pytest.raises(SystemExit) as exc:
         montecarlo.main([str(SCENARIOS / "fig9_clearance.yaml"), "--out", str(tmp_path),

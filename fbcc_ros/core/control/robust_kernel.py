@@ -69,7 +69,9 @@ P_DNOISE = P_DEPTH_F + 6  # what the depth loop discounts of each row: its noise
 P_SETTLE_GAIN = P_DNOISE + 4  # the lateral loops' gain once the depth is reached (of ω_c)
 P_TILT_RATE = P_SETTLE_GAIN + 1  # the fastest a tilt row turns the peg [rad/s]
 P_FRICTION_MAX = P_TILT_RATE + 1  # the largest friction the lever may take (0: off)
-N_PARAMS = P_FRICTION_MAX + 1
+P_ENTRY_STEP = P_FRICTION_MAX + 1  # the depth step a period allows through the entry [m]
+P_ENTRY_DEPTH = P_ENTRY_STEP + 1  # the entry's depth [m]
+N_PARAMS = P_ENTRY_DEPTH + 1
 
 
 def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray:
@@ -131,6 +133,7 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
     prm[P_SETTLE_GAIN] = p.settle_gain
     prm[P_TILT_RATE] = p.tilt_rate
     prm[P_FRICTION_MAX] = p.friction_max
+    prm[P_ENTRY_STEP], prm[P_ENTRY_DEPTH] = p.entry_step, p.entry_depth
     prm[P_DEPTH_F : P_DEPTH_F + 6] = second_order_coefficients(
         p.depth_filter_frequency, p.filter_damping, dt)  # fmt: skip
     # the depth loop's effort is a row above its noise through that faster filter, as the
@@ -316,6 +319,8 @@ def robust_rows(
             slope = abs(ident.plane_depth_gain(idn[i], j_max)) / scale  # ∂e/∂l [1/m]
             rate = prm[P_WL] * (1.0 - effort) / max(slope, 1e-9)
             rate = min(max(rate, -v), v)
+        if depth < prm[P_ENTRY_DEPTH]:  # through the rim: a period's step, whatever the rate
+            rate = min(rate, prm[P_ENTRY_STEP] / prm[P_DT])
         if m[C_T] < m[C_HOLD]:
             rate = min(rate, 0.0)
         if w[i, 2] > prm[P_FZ_BACK]:

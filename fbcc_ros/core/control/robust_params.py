@@ -113,6 +113,13 @@ class RobustParams:
             scenario's by Δμ leaves cos γ Δμ of every lateral force in its tilt row (a tilt
             turned past zero or the wrong way, ``docs/reproduction.md``). A sliding sample
             reading more is taken for a wedged contact; 0 keeps the scenario's μ.
+        entry_step, entry_depth: Through the hole's entry, the first ``entry_depth`` [m] (a
+            chamfer and the rim's top face), the depth command moves at most ``entry_step``
+            [m] a control period: the first contact with the rim comes within one step, and
+            a stiff part in a stiff grip turns that step into force before the law can see it
+            (at 100 Hz a 5 mm/s insertion steps 50 µm, which stopped stiff parts at the guard
+            on the model with its rim, ``docs/integration.md``). At 1 kHz and 5 mm/s the
+            step is the insertion's own.
         offset_resolution, tilt_resolution: The smallest offset [m] and tilt [rad] the law
             resolves: each row's stiffness is at least its filtered noise over this, so noise
             alone cannot drive a row by more.
@@ -158,6 +165,8 @@ class RobustParams:
     tilt_lead: float = 2e-3
     tilt_depth: float = 2e-4
     friction_max: float = 0.8
+    entry_step: float = 5e-6
+    entry_depth: float = 6e-4
     F_ext_limit: float = 300.0
 
     POSITIVE: ClassVar[tuple[str, ...]] = (
@@ -167,7 +176,7 @@ class RobustParams:
         "depth_filter_frequency", "depth_lead", "fz_back_off", "guard_amplitude",
         "guard_backoff", "guard_hold", "F_ext_limit", "guard_effort", "settle_gain",
         "offset_resolution", "tilt_resolution", "phase_margin", "lateral_lead", "tilt_lead",
-        "tilt_rate",
+        "tilt_rate", "entry_step",
     )  # fmt: skip
 
     def __post_init__(self) -> None:
@@ -196,6 +205,9 @@ class RobustParams:
         c = self.coupling_limit
         if isinstance(c, bool) or not isinstance(c, (int, float)) or not 0.0 <= c < 1.0:
             raise ConfigError("coupling_limit", c, "a number in [0, 1): 0 ignores the coupling")
+        e = self.entry_depth
+        if not (math.isfinite(e) and 0.0 <= e <= 0.005):
+            raise ConfigError("entry_depth", e, "a depth in [0, 0.005] m (0: off)")
         f = self.friction_max
         if isinstance(f, bool) or not isinstance(f, (int, float)) or not 0.0 <= f <= 2.0:
             raise ConfigError("friction_max", f, "a friction coefficient in [0, 2] (0: off)")

@@ -71,6 +71,8 @@ _FIT_MAX = 0.05  # |R - r| / R: a fit differs by microns, not by a twentieth of 
 
 DEFAULT_NOISE = (0.05, 0.05, 0.05, 0.002, 0.002)  # [N, N·m] a 6-axis F/T sensor's noise
 DEFAULT_LAG = 0.005  # [s]
+#: The control rates a scenario may state [Hz].
+RATE_HZ = (10.0, 1e5)
 DEFAULT_TOLERANCE = {"offset": 2e-5, "tilt": 0.0035, "depth": 1e-5, "force": 1.0}
 
 
@@ -267,9 +269,9 @@ def validate(scenario: Any, name: str = "scenario") -> Scenario:
         ),
     )
 
-    rate = _number("rate_hz", s.get("rate_hz", 1000), 10, 1e5, "Hz")
+    rate = _number("rate_hz", s.get("rate_hz", 1000), *RATE_HZ, "Hz")
     if "rate_hz" in rob:
-        stack = _number("robot.rate_hz", rob["rate_hz"], 10, 1e5, "Hz")
+        stack = _number("robot.rate_hz", rob["rate_hz"], *RATE_HZ, "Hz")
         if "rate_hz" in s and stack != rate:
             raise ConfigError("robot.rate_hz", stack, f"the scenario's rate_hz ({rate:g} Hz) "
                               "or only one of the two")  # fmt: skip

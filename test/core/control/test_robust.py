@@ -340,6 +340,9 @@ _CHANGED: dict[str, tuple[object, dict[str, object]]] = {
     "coupling_limit": (0.5, {}),
     "plane_gate": (False, {}),
     "friction_max": (0.0, {}),  # off: the lever keeps the scenario's μ
+    # at 1 kHz and 5 mm/s the default step is the insertion's own: a smaller one acts
+    "entry_step": (1e-6, {}),
+    "entry_depth": (3e-4, {"entry_step": 1e-6}),
     # only a growing oscillation counts; a lower amplitude lets the run's smaller swings count
     "guard_growth": (2.0, {"guard_cycles": 2, "guard_amplitude": 10.0}),
 }
@@ -710,3 +713,25 @@ def test_the_lever_takes_the_parts_friction_and_the_tilts_stay_on_their_path() -
         assert kept > read, (mu, math.degrees(kept), math.degrees(read))
         read_total, kept_total = read_total + read, kept_total + kept
     assert kept_total > 3.0 * read_total, (math.degrees(kept_total), math.degrees(read_total))
+
+
+@pytest.mark.parametrize("rate_hz", [100.0, 250.0, 1000.0])
+def test_the_entry_is_crossed_a_step_a_period_whatever_the_rate(rate_hz: float) -> None:
+    """In free space the depth command moves at most ``entry_step`` a period through the
+    first ``entry_depth``, at the insertion's speed below it: at 100 Hz 5 µm, not 50 µm."""
+    p = RobustParams()
+    law = RobustFbcc(_pair("clearance", 1e11), p)
+    dt = 1.0 / rate_hz
+    law.prepare(dt)
+    law.reset(np.zeros(5))
+    features = np.zeros(5)
+    depths = [0.0]
+    while depths[-1] < 2e-3:
+        command = law.step(np.zeros(5), features, dt)
+        features = command.copy()  # an ideal arm, nothing touched
+        depths.append(float(command[2]))
+    steps = np.diff(depths)
+    entry = np.array(depths[:-1]) < p.entry_depth
+    assert steps[entry].max() <= p.entry_step * (1 + 1e-9)
+    speed = 0.005  # the default insertion's
+    assert steps[~entry].max() == pytest.approx(speed * dt, rel=1e-6)
