@@ -319,7 +319,7 @@ def robust_rows(
             slope = abs(ident.plane_depth_gain(idn[i], j_max)) / scale  # ∂e/∂l [1/m]
             rate = prm[P_WL] * (1.0 - effort) / max(slope, 1e-9)
             rate = min(max(rate, -v), v)
-        if depth < prm[P_ENTRY_DEPTH]:  # through the rim: a period's step, whatever the rate
+        if depth < prm[P_ENTRY_DEPTH]:  # through the rim: one step a sample, whatever the rate
             rate = min(rate, prm[P_ENTRY_STEP] / prm[P_DT])
         if m[C_T] < m[C_HOLD]:
             rate = min(rate, 0.0)

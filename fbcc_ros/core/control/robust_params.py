@@ -115,7 +115,8 @@ class RobustParams:
             reading more is taken for a wedged contact; 0 keeps the scenario's μ.
         entry_step, entry_depth: Through the hole's entry, the first ``entry_depth`` [m] (a
             chamfer and the rim's top face), the depth command moves at most ``entry_step``
-            [m] a control period: the first contact with the rim comes within one step, and
+            [m] a step (between two samples the law sees, one period or a late sample's
+            several): the first contact with the rim comes within one step, and
             a stiff part in a stiff grip turns that step into force before the law can see it
             (at 100 Hz a 5 mm/s insertion steps 50 µm, which stopped stiff parts at the guard
             on the model with its rim, ``docs/integration.md``). At 1 kHz and 5 mm/s the
