@@ -269,7 +269,7 @@ DRILLS: dict[str, Drill] = {
                                                    [200.0, 20.0]), "refused"),
     "lowpass-param": Drill("the compensation's low-pass set to 1 Hz while running",
                            lambda run, w, b: _set(run, w, "dynamic_compensation", "lowpass_hz",
-                                                  1.0), "recovered"),
+                                                  1.0), "refused"),
     "max-step-param": Drill("the controller's max_step set to 10 mm (200 times) while running",
                             lambda run, w, b: _set(run, w, "fbcc_controller", "max_step", 0.01),
                             "refused"),

@@ -158,13 +158,15 @@ class CompensationStage:
         self.comp = Compensator(self.setup, self.robot)
         self._filters = (values["lowpass_hz"], values["deadband"])
         self._startup_band = tuple(values["deadband"])
+        self._startup_cut = float(values["lowpass_hz"])
         self._untared = self.setup.tare_samples > 0
         self.just_tared = False
         self.just_tripped = False
         self._tripped_said = False
 
     def apply(self, values: dict[str, Any]) -> None:
-        """The runtime parameters (``lowpass_hz``, ``deadband``). A dead band that would hide
+        """The runtime parameters (``lowpass_hz``, ``deadband``). A low-pass cut-off lower than
+        at start-up is refused (ConfigError): it lags the law's input. A dead band that would hide
         the lateral forces the law aligns with (:func:`~fbcc_ros.pipeline.lateral_watch.
         deadband_warning`) is refused (ConfigError) unless it is no wider than at start-up:
         the law would go on pushing the peg in, blind to them."""
@@ -175,7 +177,12 @@ class CompensationStage:
                               f"{RESOLVE_FORCE:g} N, or no wider than at start-up "
                               f"{list(self._startup_band)}, while running (a wider band hides "
                               "the lateral forces the law aligns with)")
-        self._filters = (values["lowpass_hz"], band)
+        cut, start = values["lowpass_hz"], self._startup_cut
+        if cut > 0.0 and (start == 0.0 or cut < start):
+            raise ConfigError("lowpass_hz", cut, f"0 (off) or at least its start-up value "
+                              f"{start:g} Hz while running (a lower cut-off lags the law's "
+                              "input beyond the delay its margins budget for)")
+        self._filters = (cut, band)
         self.comp.set_filters(*self._filters)
 
     def retare(self, samples: int, bias: Sequence[float] | None = None) -> None:

@@ -38,7 +38,7 @@ REASONS = {
     "kinematics-restart": ("no fault; phase inserted", "stale features", GHOST),
     "tare-under-load": ("fbcc/start refused: no recent compensated wrench", "tare refused"),
     "deadband-param": ("a force band of at most 0.5 N",),
-    "lowpass-param": ("no fault; phase inserted",),
+    "lowpass-param": ("0 (off) or at least its start-up value",),
     "max-step-param": ("at most its start-up value",),
     "start-after-fault": ("acknowledge it with reset first",),
     "disk-full": ("recording stopped",),

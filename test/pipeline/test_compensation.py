@@ -81,3 +81,21 @@ def test_a_dead_band_that_would_blind_the_law_is_refused_while_running() -> None
     started_wide.apply({**wide, "deadband": [0.0, 0.0]})
     started_wide.apply(wide)
     assert started_wide._filters[1] == [2.0, 0.5]
+
+
+def test_a_low_pass_that_would_lag_the_law_is_refused_while_running() -> None:
+    """Lowering the low-pass cut-off while running (or turning one on) is refused: it lags the
+    law's input past what its margins budget; raising it, or off, applies."""
+    from fbcc_ros.core.errors import ConfigError
+
+    values = resolve("dynamic_compensation", compensation.TABLE, {"lowpass_hz": 200.0})
+    stage = compensation.CompensationStage(values)
+    with pytest.raises(ConfigError, match=r"lowpass_hz.*1.0.*at least its start-up value 200"):
+        stage.apply({**values, "lowpass_hz": 1.0})
+    stage.apply({**values, "lowpass_hz": 400.0})
+    assert stage._filters[0] == 400.0
+    stage.apply({**values, "lowpass_hz": 0.0})
+    assert stage._filters[0] == 0.0
+    off = resolve("dynamic_compensation", compensation.TABLE, {})
+    with pytest.raises(ConfigError, match="lowpass_hz"):
+        compensation.CompensationStage(off).apply({**off, "lowpass_hz": 20.0})
