@@ -64,10 +64,12 @@ TABLE = (
     Param("bias", [0.0] * 6, "sensor bias (fx, fy, fz, tx, ty, tz)", "N, N m"),
     Param("tare_samples", 200, "average this many readings into the bias at start-up (0: off); "
           "the arm still and out of contact meanwhile", "", 0, 1_000_000),
-    Param("lowpass_hz", 0.0, "output low-pass cut-off (0: off)", "Hz", 0.0, 10000.0,
+    Param("lowpass_hz", 0.0, "output low-pass cut-off (0: off); while running only 0 or at least "
+          "its start-up value (a lower one lags the law's input)", "Hz", 0.0, 10000.0,
           read_only=False),
-    Param("deadband", [0.0, 0.0], "output dead band [force, moment]", "N, N m",
-          read_only=False),
+    Param("deadband", [0.0, 0.0], "output dead band [force, moment]; while running a force band "
+          f"over {RESOLVE_FORCE:g} N only if no wider than at start-up (it hides the lateral "
+          "forces the law aligns with)", "N, N m", read_only=False),
     Param("wrench_topic", "ft_sensor/raw", "where the raw wrench comes from (e.g. "
           "force_torque_broadcaster/wrench, the LBR stack's estimate)"),
     Param("wrench_qos", "reliable", "reliability of the raw wrench (or external joint torques) "
