@@ -53,6 +53,8 @@ CASES = (
     Case("tilted 2° away, chamfer, 0.3 mm off", 3e-4, 3e-4, 2 * DEG),
 )
 PLANT_NAMES = ("model", "mujoco")
+#: The least Fz [N] whose lever My/Fz the table gives.
+SUPPORT = 1.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -108,7 +110,8 @@ def markdown(rows: list[Settled]) -> str:
              "|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for r in rows:
         f, w = r.features, r.response
-        lever = f"{w[4] / w[2] * 1e3:.2f}" if w[2] > 0 else "-"
+        # a support's lever needs a support: a peg at rest in the bore carries next to no Fz
+        lever = f"{w[4] / w[2] * 1e3:.2f}" if w[2] > SUPPORT else "-"
         lines.append(f"| {r.case} | {r.plant} | {f[2] * 1e6:.1f} | {f[0] * 1e6:.1f} | "
                      f"{f[4] / DEG:.3f} | {w[2]:.1f} | {w[0]:.2f} | {lever} |")  # fmt: skip
     return "\n".join(lines)

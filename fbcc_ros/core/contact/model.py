@@ -40,6 +40,7 @@ from numpy.typing import ArrayLike
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.kernel import WORK_ROWS, angle_table, response_kernel
 from fbcc_ros.core.contact.rim import RAYS_PER_WALL_RAY, rim_kernel
+from fbcc_ros.core.contact.sliding import SLIDE, as_slide, wall_friction_kernel
 from fbcc_ros.core.errors import ConfigError, InputError
 
 #: Order of the features in every feature vector: (dx, dy, l, theta_x, theta_y).
@@ -141,8 +142,9 @@ class PegHole:
         n_angles: Points of the periodic rule over alpha (a multiple of 4, so that the rule is
             symmetric under 90° rotations about z).
         rim: Whether the hole block is solid around and under the bore: its top face, the
-            chamfer and the bottom press on the peg's end face (:mod:`.rim`). False: the
-            paper's model, the wall alone (a peg beside the hole touches nothing).
+            chamfer and the bottom press on the peg's end face (:mod:`.rim`), and the wall's
+            friction opposes the peg's sliding (:mod:`.sliding`). False: the paper's model,
+            the wall alone (a peg beside the hole touches nothing).
         chamfer: W, the width of the hole's 45° chamfer [m] (0: a sharp edge); only with
             ``rim``.
     """
@@ -268,13 +270,16 @@ class PegHole:
         of eq. 12-13 come from that friction).
 
         With the rim, the top face, the chamfer and the bottom add their wrench
-        (:mod:`.rim`), and a negative depth (the peg above the hole) is allowed.
+        (:mod:`.rim`), a negative depth (the peg above the hole) is allowed, and the wall's
+        friction opposes the peg's own sliding instead of eq. 11's push (:mod:`.sliding`).
 
         Args:
             features: shape (5,) or (N, 5); lengths in m, angles in rad; depth l >= 0
                 without the rim.
-            slide: The peg's velocity in {H} [m/s], shape (3,) or (N, 3), for the friction of
-                the rim (None: at rest).
+            slide: The peg's velocity in {H}, shape (5,) or (N, 5): its tip centre's
+                (vx, vy, vz) [m/s] and its turn (ωx, ωy) [rad/s] (:mod:`.sliding`); 3 columns:
+                no turn. For the friction of a pair with the rim, on its faces and its wall
+                (None: at rest, no friction).
 
         Returns:
             Responses of the same shape; forces in N, moments in N·m. A depth of zero, or a
@@ -288,9 +293,10 @@ class PegHole:
         v = None if slide is None else np.asarray(slide, dtype=float)
         if v is not None:
             v = v.reshape(1, -1) if v.ndim == 1 else v
-        if v is not None and (v.shape != (len(f2), 3) or not np.isfinite(v).all()):
+        if v is not None and (v.shape not in ((len(f2), 3), (len(f2), SLIDE))
+                              or not np.isfinite(v).all()):  # fmt: skip
             raise InputError("slide", np.asarray(slide).tolist(), "finite velocities (vx, vy, "
-                             "vz) in m/s, one per feature row")  # fmt: skip
+                             "vz[, wx, wy]) in m/s and rad/s, one per feature row")  # fmt: skip
         out = self._batch.response(f2, v)
         return out[0] if single else out
 
@@ -354,8 +360,8 @@ class ContactBatch:
 
     def response(self, features: FloatArray, slide: FloatArray | None = None) -> FloatArray:
         """eq. (5)-(13), and the rim where a pair has it, for validated rows of shape (N, 5):
-        row i uses pair i (or the only one); ``slide`` (N, 3) the pegs' velocities [m/s] (None:
-        at rest).
+        row i uses pair i (or the only one); ``slide`` (N, 3 or :data:`~.sliding.SLIDE`) the
+        pegs' velocities (None: at rest), for the friction where a pair has the rim.
 
         No validation here: this is the simulator's inner loop. :meth:`PegHole.response` is the
         checked entry point.
@@ -367,12 +373,13 @@ class ContactBatch:
         ca, sa = angle_table(self.n_angles)
         out = np.empty((len(features), 5))
         f = np.ascontiguousarray(features, dtype=float)
-        response_kernel(f, self.table, self.peg_top, ca, sa, out, np.empty((WORK_ROWS, len(f))))
+        work = np.empty((WORK_ROWS, len(f)))
+        response_kernel(f, self.table, self.peg_top, ca, sa, out, work)
         if self.has_rim:
-            v = (np.zeros((len(f), 3)) if slide is None  # a peg at rest where none is given
-                 else np.ascontiguousarray(slide, dtype=float))
+            v = as_slide(slide, len(f))  # a peg at rest where none is given
             rim_ca, rim_sa = angle_table(RAYS_PER_WALL_RAY * self.n_angles)
             rim_kernel(f, v, self.table, self.peg_top, rim_ca, rim_sa, out)
+            wall_friction_kernel(f, v, self.table, self.peg_top, ca, sa, out, work)
         return out
 
     @functools.cached_property

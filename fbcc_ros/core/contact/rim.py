@@ -24,11 +24,9 @@ pose (:func:`~.kernel.response_kernel`). So a peg standing 0.1 mm off a 10 µm h
 by the face on a crescent 90 µm wide, the wall pushes it only at the crescent's two tips, and
 the support's moment, about 0.8 r times Fz, tips it toward the hole.
 
-**Friction.** Coulomb on every element: μ dN against the peg's sliding velocity ``v`` [m/s] in
-{H}, in the element's tangent plane, regularised below :data:`SLIDE_EPS`:
-``dF_t = -μ dN v_t / max(|v_t|, SLIDE_EPS)``. The quasi-static model has no velocity of its own,
-so the caller gives v (the plant: the hand's motion over the period). A peg at rest on the face
-feels no friction there; the wall's eq. 11 by contrast always assumes the peg is pushed in.
+**Friction.** Coulomb on every element, against the peg's own sliding there
+(:mod:`.sliding`, which the bore's wall shares with the rim): a peg at rest on the face feels
+no friction there.
 
 **Quadrature.** The end face in polar coordinates about its centre, ``ρ' dρ' dφ``:
 :data:`RAYS_PER_WALL_RAY` times ``n_angles`` rays fixed in the peg's frame, each cut exactly
@@ -53,10 +51,8 @@ import numpy as np
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.features import axis_and_tip
 from fbcc_ros.core.contact.kernel import GL_NODES, GL_ORDER, GL_WEIGHTS
+from fbcc_ros.core.contact.sliding import add_force, friction_on_hole
 
-#: The sliding speed below which the face's friction is proportional to the speed [m/s]: 0.1
-#: mm/s, a fiftieth of the insertion speed, above the µm-per-period drift of a held peg.
-SLIDE_EPS = 1.0e-4
 #: Rays of the end face per ray of the wall: a face contact is a crescent or a patch at an edge,
 #: far narrower than the wall's band. Fixed in the peg's frame, so that the wrench is continuous
 #: in the pose (the holder's Newton iteration needs that): a tilted edge's point contact between
@@ -121,17 +117,16 @@ def rim_kernel(
     ca: FloatArray,
     sa: FloatArray,
     out: FloatArray,
-    stick: bool = False,
 ) -> None:
     """Add the rim's wrench on the hole (module doc) to ``out`` (N, 5), for feature rows ``f``
-    (N, 5), any depth, the peg's velocity ``slide`` (N, 3) [m/s] in {H}, row i with pair i of
-    ``table`` (:data:`~.kernel.TABLE_ROWS`, N) or its only one; rows whose pair has no rim
-    are left as they are. ``ca``, ``sa``: the rays' angles (:func:`~.kernel.angle_table`).
-    ``stick``: the friction proportional to the velocity at any speed (the regularised law's
-    slope, unsaturated: a peg that sticks; the holder's first pass)."""
+    (N, 5), any depth, the peg's velocity ``slide`` (N, :data:`~.sliding.SLIDE`), row i with
+    pair i of ``table`` (:data:`~.kernel.TABLE_ROWS`, N) or its only one; rows whose pair has
+    no rim are left as they are. ``ca``, ``sa``: the rays' angles (:func:`~.kernel.angle_table`).
+    The friction is :func:`~.sliding.friction_on_hole`'s, on each element's own motion."""
     n_a = ca.shape[0]
     per_row = table.shape[1] > 1
     cuts = np.empty(16)
+    acc = np.zeros(5)  # the row's wrench on the hole
     for i in range(f.shape[0]):
         c = i if per_row else 0
         if table[8, c] <= 0.0:
@@ -152,8 +147,7 @@ def rim_kernel(
             gx, gy, gz = px + peg_length * ax, py + peg_length * ay, pz + peg_length * az
         else:
             gx, gy, gz = 0.0, 0.0, -(L + H)
-        sx, sy, sz = slide[i, 0], slide[i, 1], slide[i, 2]
-        fx = fy = fz = mx = my = 0.0
+        acc[:] = 0.0
         w_ray = k / FACE_DEPTH * (2.0 * math.pi / n_a)
         for j in range(n_a):
             dx, dy, dz = ca[j] * ux + sa[j] * vx, ca[j] * uy + sa[j] * vy, ca[j] * uz + sa[j] * vz
@@ -194,23 +188,10 @@ def rim_kernel(
                     if gap <= 0.0:
                         continue
                     dn = w_ray * GL_WEIGHTS[g_node] * half * rho_p * gap  # p dA
-                    # friction against the sliding velocity's tangential part, on the peg
-                    vn = sx * nx + sy * ny + sz * nz
-                    tx, ty, tz = sx - vn * nx, sy - vn * ny, sz - vn * nz
-                    speed = math.sqrt(tx * tx + ty * ty + tz * tz)
-                    fric = mu * dn / (speed if speed > SLIDE_EPS and not stick else SLIDE_EPS)
                     # the force on the hole: minus the normal push and the friction on the peg
-                    hx = -dn * nx + fric * tx
-                    hy = -dn * ny + fric * ty
-                    hz = -dn * nz + fric * tz
-                    fx += hx
-                    fy += hy
-                    fz -= hz  # Fz > 0 drags the hole along -z
-                    rx, ry, rz = ex - gx, ey - gy, ez - gz
-                    mx += ry * hz - rz * hy
-                    my += rz * hx - rx * hz
-        out[i, 0] += fx
-        out[i, 1] += fy
-        out[i, 2] += fz
-        out[i, 3] += mx
-        out[i, 4] += my
+                    hx, hy, hz = friction_on_hole(dn, mu, slide[i], ex - px, ey - py, ez - pz,
+                                                  nx, ny, nz)  # fmt: skip
+                    add_force(acc, hx - dn * nx, hy - dn * ny, hz - dn * nz, ex - gx, ey - gy,
+                              ez - gz)  # fmt: skip
+        for m in range(5):
+            out[i, m] += acc[m]

@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact import kernel as contact_kernel
 from fbcc_ros.core.contact import rim as contact_rim
+from fbcc_ros.core.contact import sliding
 from fbcc_ros.core.sim.holder import BoolArray
 
 #: Forward-difference steps of the Jacobian: u_x, u_y [m], phi_x, phi_y [rad], and u_l [m] where
@@ -49,7 +50,7 @@ def _sin_cos_tilt(theta_x: float, theta_y: float) -> tuple[float, float]:
 def _row_residual(
     xr: FloatArray, h: float, q: FloatArray, tab: FloatArray, peg_top: bool,
     ca: FloatArray, sa: FloatArray, rim_ca: FloatArray, rim_sa: FloatArray, last: FloatArray,
-    slide: FloatArray, inv_dt: float, vbuf: FloatArray, work: FloatArray, k: FloatArray,
+    inv_dt: float, vbuf: FloatArray, work: FloatArray, k: FloatArray,
     tol: FloatArray, fbuf: FloatArray, wbuf: FloatArray, r: FloatArray, n_q: int,
 ) -> float:  # fmt: skip
     """Features of deflection q into fbuf[0], wrench into wbuf[0], scaled residual into r (its
@@ -69,17 +70,12 @@ def _row_residual(
         fbuf[0, 2] = (xr[2] * c_r - rad * s_r + rad * s_n) / c_n + q[4]
     contact_kernel.response_kernel(fbuf, tab, peg_top, ca, sa, wbuf, work)
     if n_q == N_AXIAL:
-        # the face's friction: sticking, against the peg's own motion since the last period
-        # (the regularised law's slope); sliding, mu N along a direction fixed for the solve
-        if slide[0] == 0.0 and slide[1] == 0.0 and slide[2] == 0.0:
-            vbuf[0, 0] = (fbuf[0, 0] - last[0]) * inv_dt
-            vbuf[0, 1] = (fbuf[0, 1] - last[1]) * inv_dt
-            vbuf[0, 2] = (last[2] - fbuf[0, 2]) * inv_dt
-            contact_rim.rim_kernel(fbuf, vbuf, tab, peg_top, rim_ca, rim_sa, wbuf, True)
-        else:
-            for m in range(3):
-                vbuf[0, m] = slide[m]
-            contact_rim.rim_kernel(fbuf, vbuf, tab, peg_top, rim_ca, rim_sa, wbuf, False)
+        # the rim's and the wall's friction (:mod:`~fbcc_ros.core.contact.sliding`): the
+        # regularised Coulomb law on each element's motion since the last period, implicit in
+        # the pose solved for (a peg that moves less than SLIDE_EPS a second there sticks)
+        sliding.peg_velocity_row(fbuf[0], last, tab[1, 0], inv_dt, vbuf[0])
+        contact_rim.rim_kernel(fbuf, vbuf, tab, peg_top, rim_ca, rim_sa, wbuf)
+        sliding.wall_friction_kernel(fbuf, vbuf, tab, peg_top, ca, sa, wbuf, work)
     fx, fy, fz, mx, my = wbuf[0, 0], wbuf[0, 1], wbuf[0, 2], wbuf[0, 3], wbuf[0, 4]
     if not peg_top:  # moments from (0, 0, -(L + H)) to the grip point (module doc)
         pl, rad, depth = tab[6, 0], tab[1, 0], tab[4, 0] + tab[5, 0]
@@ -173,7 +169,7 @@ def _solve(a_in: FloatArray, b: FloatArray, a: FloatArray, out: FloatArray, n: i
 def solve_rows(
     xr: FloatArray, h: FloatArray, q: FloatArray, back: FloatArray, jac: FloatArray,
     have: BoolArray, table: FloatArray, peg_top: bool, ca: FloatArray, sa: FloatArray,
-    rim_ca: FloatArray, rim_sa: FloatArray, last: FloatArray, inv_dt: float, slide: FloatArray,
+    rim_ca: FloatArray, rim_sa: FloatArray, last: FloatArray, inv_dt: float,
     k_rows: FloatArray, tol: FloatArray, max_iter: int,
     fd: FloatArray, x_out: FloatArray, w_out: FloatArray, conv: BoolArray,
     evals: NDArray[np.int64], iters: NDArray[np.int64],
@@ -183,7 +179,7 @@ def solve_rows(
     work = np.empty((contact_kernel.WORK_ROWS, 1))  # the contact kernel's scratch
     fbuf, wbuf = np.empty((1, 5)), np.empty((1, 5))
     fbuf_t, wbuf_t = np.empty((1, 5)), np.empty((1, 5))
-    vbuf = np.zeros((1, 3))  # the peg's sliding velocity, for the rim's friction
+    vbuf = np.zeros((1, sliding.SLIDE))  # the peg's velocity, for the friction
     r, rt, qt, s, neg = (np.zeros(N_AXIAL), np.zeros(N_AXIAL), np.zeros(N_AXIAL),
                          np.zeros(N_AXIAL), np.zeros(N_AXIAL))  # fmt: skip
     dz, dr, jdz = np.empty(N_AXIAL), np.empty(N_AXIAL), np.empty(N_AXIAL)
@@ -192,10 +188,10 @@ def solve_rows(
         c = i if table.shape[1] > 1 else 0
         for m in range(contact_kernel.TABLE_ROWS):
             tab[m, 0] = table[m, c]
-        qi, ji, li, si = q[i], jac[i], last[i], slide[i]
+        qi, ji, li = q[i], jac[i], last[i]
         k = k_rows[i if k_rows.shape[0] > 1 else 0]  # the row's holder, or the one of all
         n_q = N_AXIAL if tab[8, 0] > 0.0 else N_LATERAL
-        merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, rim_ca, rim_sa, li, si,
+        merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, rim_ca, rim_sa, li,
                               inv_dt, vbuf, work, k, tol, fbuf, wbuf, r, n_q)  # fmt: skip
         n_eval = 1
         for fallback in range(2):  # off the wall: start from the last solution, then from 0
@@ -203,7 +199,7 @@ def solve_rows(
                 break
             for m in range(n_q):
                 qi[m] = back[i, m] if fallback == 0 else 0.0
-            merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, rim_ca, rim_sa, li, si,
+            merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, rim_ca, rim_sa, li,
                                   inv_dt, vbuf, work, k, tol, fbuf, wbuf, r, n_q)  # fmt: skip
             n_eval += 1
         it, t, fresh = 0, 1.0, False
@@ -215,7 +211,7 @@ def solve_rows(
                     for m in range(n_q):
                         qt[m] = qi[m]
                     qt[j] += fd[j]
-                    _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, rim_ca, rim_sa, li, si,
+                    _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, rim_ca, rim_sa, li,
                                   inv_dt, vbuf, work, k, tol, fbuf_t, wbuf_t, rt, n_q)  # fmt: skip
                     for m in range(n_q):
                         ji[m, j] = (rt[m] - r[m]) / (fd[j] * k[j] / tol[j])
@@ -230,13 +226,13 @@ def solve_rows(
                     reach = max(reach, abs(s[m] * tol[m] / k[m]) / TRUST[m])
             for m in range(n_q):
                 qt[m] = qi[m] + t * s[m] * tol[m] / k[m] / reach
-            mt = _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, rim_ca, rim_sa, li, si,
+            mt = _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, rim_ca, rim_sa, li,
                                inv_dt, vbuf, work, k, tol, fbuf_t, wbuf_t, rt, n_q)  # fmt: skip
             n_eval += 1
             if _is_off_wall(qt, wbuf_t):  # no equilibrium there: no deflection, or back
                 for m in range(n_q):
                     qt[m] = 0.0
-                mt = _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, rim_ca, rim_sa, li, si,
+                mt = _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, rim_ca, rim_sa, li,
                                    inv_dt, vbuf, work, k, tol, fbuf_t, wbuf_t, rt,
                                    n_q)  # fmt: skip
                 n_eval += 1

@@ -25,10 +25,10 @@ and "converged" means ``|residual| <= 1`` in every coordinate):
 * where the pair has the rim, the peg turned about its grip keeps its tip centre's depth (its
   features' l, the end face's lowest point, follows the tilt); each Newton step is bounded
   (:data:`~.holder_kernel.TRUST`: a face contact's equilibria, on the face or tipped into the
-  hole, lie microns apart, and a longer step lands on another); and the face's friction takes
-  two passes, a return mapping: every peg sticks (the regularised law's slope), then a peg that
-  moved sideways faster than :data:`~fbcc_ros.core.contact.rim.SLIDE_EPS` slides, mu N along
-  that motion, solved again;
+  hole, lie microns apart, and a longer step lands on another); and the friction of the face
+  and the wall (:mod:`~fbcc_ros.core.contact.sliding`) is the regularised Coulomb law on each
+  element's motion since the last period, implicit in the pose solved for: an element moving
+  slower than :data:`~fbcc_ros.core.contact.sliding.SLIDE_EPS` sticks with the law's slope;
 * rows that do not converge within ``max_iter`` iterations keep their best point and are
   flagged in ``converged``; nothing raises inside the iteration. At the edge of a stiff contact
   against a soft grasp that happens often, and the best point can be off balance by newtons
@@ -58,8 +58,10 @@ from numpy.typing import ArrayLike
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact import kernel as contact_kernel
+from fbcc_ros.core.contact import sliding
 from fbcc_ros.core.contact.model import ContactBatch, as_rows
-from fbcc_ros.core.contact.rim import RAYS_PER_WALL_RAY, SLIDE_EPS
+from fbcc_ros.core.contact.rim import RAYS_PER_WALL_RAY
+from fbcc_ros.core.contact.sliding import SLIDE
 from fbcc_ros.core.errors import ConfigError, InputError
 from fbcc_ros.core.sim import holder_batched, holder_kernel
 from fbcc_ros.core.sim.holder import (
@@ -189,8 +191,11 @@ class HolderSolver:
         if len(self._k) not in (1, n):
             raise InputError("x_robot", f"{n} rows", f"{len(self._k)} rows, one per holder")
         if self.holder.is_rigid:
-            w = (contact.response(xr, _velocity(xr, last, dt)) if contact is not None
-                 else holder_batched.call(response, xr))  # type: ignore[arg-type]  # fmt: skip
+            if contact is not None:
+                radii = np.broadcast_to(contact.table[1], (n,))
+                w = contact.response(xr, _velocity(xr, last, dt, radii))
+            else:
+                w = holder_batched.call(response, xr)  # type: ignore[arg-type]
             self.evaluations, self.iterations = n, 0
             out = Equilibrium(xr.copy(), w, np.zeros_like(xr), np.ones(n, dtype=bool))
             return _squeeze(out) if single else out
@@ -234,39 +239,17 @@ class HolderSolver:
         self, xr: FloatArray, h: FloatArray, q: FloatArray, back: FloatArray,
         contact: ContactBatch, last: FloatArray | None, dt: float,
     ) -> tuple[FloatArray, FloatArray, BoolArray, int, int]:  # fmt: skip
-        """The compiled iteration. Where the pair has the rim and the peg moved, its face's
-        friction in two passes (a return mapping): every peg sticks (the regularised law's
-        slope); a peg whose motion then exceeds its slope's range slides, mu N along that
-        motion, solved again."""
-        assert self._jac is not None and self._have is not None
-        n = len(xr)
+        """The compiled iteration. Where the pair has the rim and the peg moved, the friction
+        of its faces and its wall is on each element's motion since ``last``, implicit in the
+        pose solved for (:mod:`~fbcc_ros.core.contact.sliding`)."""
         moving = last is not None and dt > 0.0
         before = np.ascontiguousarray(last if moving else xr, dtype=float)
-        inv_dt = 1.0 / dt if moving else 0.0
-        rows = np.arange(n)
-        x, w, conv, evals, iters = self._solve_rows(rows, xr, h, q, back, contact, before,
-                                                    inv_dt, np.zeros((n, 3)))  # fmt: skip
-        if moving and contact.has_rim:
-            v = _velocity(x, before, dt)
-            assert v is not None
-            speed = np.linalg.norm(v, axis=1)
-            rim = np.broadcast_to(contact.table[8] > 0, (n,))
-            # sliding on the face or the chamfer moves the peg sideways (an axial motion
-            # alone is the grip's spring, or the bore)
-            slip = np.flatnonzero(rim & (np.linalg.norm(v[:, :2], axis=1) > SLIDE_EPS))
-            if len(slip):
-                # along the stuck solution's motion, fast enough for the law to saturate
-                along = v[slip] / speed[slip, None] * (SLIDE_EPS * 1e4)
-                xs, ws, cs, es, its = self._solve_rows(slip, xr, h, q, back, contact, before,
-                                                       inv_dt, along)  # fmt: skip
-                x[slip], w[slip], conv[slip] = xs, ws, cs
-                evals, iters = evals + es, max(iters, its)
-        return x, w, conv, evals, iters
+        return self._solve_rows(np.arange(len(xr)), xr, h, q, back, contact, before,
+                                1.0 / dt if moving else 0.0)
 
     def _solve_rows(
         self, rows: np.ndarray, xr: FloatArray, h: FloatArray, q: FloatArray,
         back: FloatArray, contact: ContactBatch, last: FloatArray, inv_dt: float,
-        slide: FloatArray,
     ) -> tuple[FloatArray, FloatArray, BoolArray, int, int]:  # fmt: skip
         """:func:`~.holder_kernel.solve_rows` on ``rows`` of the step (their deflections,
         Jacobians and validity updated in place)."""
@@ -285,7 +268,7 @@ class HolderSolver:
         holder_kernel.solve_rows(
             np.ascontiguousarray(xr[rows]), h[rows], qs, np.ascontiguousarray(back[rows]), jac,
             have, np.ascontiguousarray(table), contact.peg_top, ca, sa, rim_ca, rim_sa,
-            np.ascontiguousarray(last[rows]), inv_dt, np.ascontiguousarray(slide),
+            np.ascontiguousarray(last[rows]), inv_dt,
             np.ascontiguousarray(k), self._tol, self.max_iter, holder_kernel.FD_STEP, x, w,
             conv, evals, iters,
         )  # fmt: skip
@@ -311,13 +294,17 @@ class HolderSolver:
                                          self.max_iter)  # fmt: skip
 
 
-def _velocity(x: FloatArray, last: FloatArray | None, dt: float) -> FloatArray | None:
-    """The velocity in {H} (N, 3) of pegs at features ``x`` that were at ``last`` a period
-    ``dt`` ago (the depth l points into the hole, -z); None without a last."""
+def _velocity(x: FloatArray, last: FloatArray | None, dt: float,
+              peg_radius: FloatArray) -> FloatArray | None:  # fmt: skip
+    """The velocities (N, :data:`~fbcc_ros.core.contact.sliding.SLIDE`) of pegs of radii
+    ``peg_radius`` (N or 1) at features ``x`` that were at ``last`` a period ``dt`` ago; None
+    without a last."""
     if last is None or dt <= 0.0:
         return None
-    d = (x - last) / dt
-    return np.column_stack([d[:, 0], d[:, 1], -d[:, 2]])
+    v = np.empty((len(x), SLIDE))
+    sliding.peg_velocity(np.ascontiguousarray(x), np.ascontiguousarray(last, dtype=float),
+                         np.ascontiguousarray(peg_radius, dtype=float), 1.0 / dt, v)  # fmt: skip
+    return v
 
 
 def _squeeze(e: Equilibrium) -> Equilibrium:
