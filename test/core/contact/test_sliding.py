@@ -1,6 +1,7 @@
 """The wall's friction against the peg's own sliding where the hole block is solid (the rim):
 eq. 11-13 when the peg is pushed straight in, reversed when it is pulled out, none at rest, and
-dissipative whatever the motion (a turn in two-point contact is rubbed, not free)."""
+dissipative whatever the motion (a turn in two-point contact is rubbed, not free); and so in
+the model plant, whose holder solves the law on the peg's own motion."""
 
 from __future__ import annotations
 
@@ -13,6 +14,8 @@ from fbcc_ros.core.contact.features import axis_and_tip
 from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.contact.sliding import SLIDE_EPS, peg_velocity
 from fbcc_ros.core.errors import InputError
+from fbcc_ros.core.sim.holder import Holder
+from fbcc_ros.core.sim.plants.model import ModelContact
 
 DEG = math.pi / 180
 PAIR = PegHole(5.05e-3, 5.04e-3, 0.01, 0.005, 0.3, 1e11, rim=True)
@@ -80,3 +83,31 @@ def test_a_velocity_of_the_wrong_shape_is_refused() -> None:
         PAIR.response(POSES[0], slide=[0.0, 0.0, 1.0, 0.0])
     with pytest.raises(InputError, match="slide"):
         PAIR.response(POSES[0], slide=[0.0, 0.0, math.nan])
+
+
+def test_in_the_model_plant_the_bore_rubs_against_the_pegs_own_motion() -> None:
+    """A peg pressed sideways against the bore by its grip, moved along the axis by the hand:
+    pushed in, the wall drags the hole down with μ times its push; pulled out, it holds the peg
+    back as hard (eq. 11 would still push it down); stopped, the peg stays put."""
+    grip = Holder(5e4, 30.0)
+    dt = 1e-3
+    plant = ModelContact(1, [PAIR], grip, dt)
+    offset = (PAIR.hole_radius - PAIR.peg_radius) + 10.0 / grip.lateral  # 10 N of its spring
+    hand = np.array([[offset, 0.0, 3e-3, 0.0, 0.0]])
+
+    def move(speed: float, steps: int) -> tuple[np.ndarray, np.ndarray]:
+        for _ in range(steps):
+            hand[0, 2] += speed * dt
+            features, wrench = plant.touch(hand)
+        return features[0], wrench[0]
+
+    _, pushed = move(5e-3, 100)
+    rubbing = PAIR.friction * abs(pushed[0])  # one-point contact: |Fx| is the whole push
+    assert abs(pushed[0]) > 1.0
+    assert pushed[2] == pytest.approx(rubbing, rel=0.05)
+    _, pulled = move(-5e-3, 100)
+    assert pulled[2] == pytest.approx(-PAIR.friction * abs(pulled[0]), rel=0.05)
+    before, _ = move(0.0, 1)
+    after, held = move(0.0, 50)
+    assert abs(after[2] - before[2]) < 1e-6  # a micron in 50 ms: it sticks
+    assert abs(held[2]) < rubbing
