@@ -28,6 +28,7 @@ from fbcc_ros.core.paper import paper_pair
 from fbcc_ros.core.sim.holder import Holder
 from fbcc_ros.core.sim.plants.model import ModelContact
 from fbcc_ros.core.sim.plants.mujoco import MujocoContact
+from fbcc_ros.core.sim.plants.mujoco_scene import RIGID
 from fbcc_ros.core.sim.plants.plant import Contact, LaggingRobot, Plant
 
 PLANES = ("XOZ", "YOZ")
@@ -145,13 +146,20 @@ TILTS = (0.002, 0.01)
 
 
 def main() -> int:
-    """Both tables of docs/plant.md: the peg held rigidly, each tilt of :data:`TILTS`."""
+    """The tables of docs/plant.md: the peg held rigidly, each tilt of :data:`TILTS`; then the
+    two-point tilt with the model's rim (its wall's friction against the peg's own sliding),
+    both plants in MuJoCo's stiffest grip (:data:`~fbcc_ros.core.sim.plants.mujoco_scene.
+    RIGID`), the one a rigidly held peg has there."""
     pair = paper_pair("clearance")
-    for tilt in TILTS:
-        rows = wrench_table(pair, None, Poses(tilt=tilt))
+    cases = [(f"tilt {tilt * 1e3:g} mrad", pair, None, tilt) for tilt in TILTS]
+    cases.append((f"tilt {TILTS[-1] * 1e3:g} mrad, the model with its rim in the grip "
+                  f"{RIGID.lateral:g} N/m, {RIGID.angular:g} N·m/rad", pair.replace(rim=True),
+                  RIGID, TILTS[-1]))  # fmt: skip
+    for name, part, grip, tilt in cases:
+        rows = wrench_table(part, grip, Poses(tilt=tilt))
         same = sum(a.response_state == b.response_state
                    for a, b in zip(rows[:18], rows[18:], strict=True))  # fmt: skip
-        print(f"tilt {tilt * 1e3:g} mrad: the same state read on both plants in {same} of 18")
+        print(f"{name}: the same state read on both plants in {same} of 18")
         print(markdown(rows) + "\n")
     return 0
 
