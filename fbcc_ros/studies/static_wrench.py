@@ -151,7 +151,8 @@ def main() -> int:
     both plants in MuJoCo's stiffest grip (:data:`~fbcc_ros.core.sim.plants.mujoco_scene.
     RIGID`), the one a rigidly held peg has there."""
     pair = paper_pair("clearance")
-    cases = [(f"tilt {tilt * 1e3:g} mrad", pair, None, tilt) for tilt in TILTS]
+    cases: list[tuple[str, PegHole, Holder | None, float]] = [
+        (f"tilt {tilt * 1e3:g} mrad", pair, None, tilt) for tilt in TILTS]
     cases.append((f"tilt {TILTS[-1] * 1e3:g} mrad, the model with its rim in the grip "
                   f"{RIGID.lateral:g} N/m, {RIGID.angular:g} N·m/rad", pair.replace(rim=True),
                   RIGID, TILTS[-1]))  # fmt: skip
