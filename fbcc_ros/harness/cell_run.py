@@ -142,7 +142,6 @@ class CellRun:
     def _timed(self, name: str, inner: Callable[..., Any]) -> Callable[..., Any]:
         """``inner``, its thread CPU time summed under ``name``, less what the callbacks it
         calls in turn (a chain, :meth:`_chain`) sum under their own names."""
-
         def timed(*args: Any) -> Any:
             t0 = time.thread_time_ns()
             self._nested.append(0)
@@ -182,12 +181,10 @@ class CellRun:
         """Kills the node ``name`` and starts it anew (with ``parameters`` changed, if given)
         while the others run on; returns once it is up (its parameter services answer).
 
-        A process is killed by SIGKILL, as a crash ends it (no goodbye to DDS: its endpoints
-        stay in the graph until its lease ends), and started again. A node of this process is
-        destroyed, built in a thread as this one spins, and linked into the chain in its old
-        place: beside running nodes, as a restarted process comes up, but with its modules
-        already imported, sharing the GIL with the loop and chained without DDS discovery (so
-        faster than a process restarts)."""
+        A process is killed by SIGKILL, as a crash ends it (its endpoints stay in the graph
+        until its lease ends), and started again. A node of this process is destroyed, built
+        in a thread as this one spins, and chained in its old place: beside running nodes, but
+        with its modules imported and without DDS discovery (faster than a process)."""
         spec = next((s for s in self.specs if s.name == name), None)
         if spec is None or name not in {*self.nodes, *self.procs}:
             raise FbccError(f"cannot restart {name}: not a node of this cell "
@@ -234,9 +231,7 @@ class CellRun:
 
         name = spec.name
         old = self.nodes.pop(name)
-        for up_name, outlet, down_name, _ in CHAIN:  # nothing calls into the dead node
-            if down_name == name and hasattr(self.nodes.get(up_name), outlet):
-                _unlink(getattr(self.nodes[up_name], outlet), name)
+        self._unchain_into(name)  # nothing calls into the dead node
         self.executor.remove_node(old)
         for entity in (*old.subscriptions, *old.timers, *old.services):
             entity.callback = _dead  # an event the executor queued before the removal
@@ -267,11 +262,13 @@ class CellRun:
         callbacks leave the executor and the chained calls into it are withheld (what is
         sent to it meanwhile waits in its subscriptions' queues, or is lost). :meth:`thaw`
         lets it go on."""
-        node = self.nodes[name]
+        self._unchain_into(name)
+        self.executor.remove_node(self.nodes[name])
+
+    def _unchain_into(self, name: str) -> None:
         for up_name, outlet, down_name, _ in CHAIN:
             if down_name == name and hasattr(self.nodes.get(up_name), outlet):
                 _unlink(getattr(self.nodes[up_name], outlet), name)
-        self.executor.remove_node(node)
 
     def thaw(self, name: str) -> None:
         """The node frozen by :meth:`freeze` runs again, chained in its old place."""
@@ -303,10 +300,11 @@ class CellRun:
             if time.monotonic() > deadline:
                 raise FbccError(f"{what} within {timeout:.0f} s")
 
-    def spin_for(self, seconds: float, every_second: Callable[[float], None]) -> None:
+    def spin_for(self, seconds: float, every_second: Callable[[float], None],
+                 longer: Callable[[float], bool] = lambda _: False) -> None:
         start = time.monotonic()
         said = 0
-        while (elapsed := time.monotonic() - start) < seconds:
+        while (elapsed := time.monotonic() - start) < seconds or longer(elapsed):
             self.executor.spin_once(timeout_sec=0.01)
             if elapsed >= said + 1:
                 said += 1
@@ -352,19 +350,23 @@ class CellRun:
         return out
 
     def close(self) -> None:
+        """Stops the nodes, here and in their processes, then the processes of their own (the
+        recorder), which so records what a node publishes as it stops."""
         import rclpy
 
-        for proc in self.procs.values():
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
-        for proc in self.procs.values():
-            try:
-                proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:  # rclpy catches SIGTERM: only SIGKILL is sure
-                proc.kill()
-                proc.wait()
         for node in self.nodes.values():
             node.destroy_node()
+        last = {spec.name for spec in self.specs if spec.own_process}
+        for wave in (set(self.procs) - last, last & set(self.procs)):
+            procs = [self.procs[name] for name in wave]
+            for proc in (p for p in procs if p.poll() is None):
+                proc.send_signal(signal.SIGINT)
+            for proc in procs:
+                try:
+                    proc.wait(timeout=30)  # the controller first drains its filter's answers
+                except subprocess.TimeoutExpired:  # rclpy catches SIGTERM: only SIGKILL is sure
+                    proc.kill()
+                    proc.wait()
         self.observer.destroy_node()
         self.executor.shutdown()
         rclpy.try_shutdown(context=self.context)

@@ -49,6 +49,7 @@ from fbcc_ros.core.control.phase import ACTIVE, NEEDS_RESET, Phase
 from fbcc_ros.core.errors import FbccError
 from fbcc_ros.core.sim.sensor_faults import SENSOR_FAULTS
 from fbcc_ros.harness import cell_faults as cell
+from fbcc_ros.harness.insertion_time import spin_insertion
 from fbcc_ros.ros import topics
 
 #: Seconds of insertion before the fault: the peg is a few millimetres into the hole.
@@ -306,10 +307,11 @@ def describe() -> str:
     return "\n".join(f"{name:{width}s}  {drill.what}" for name, drill in DRILLS.items())
 
 
-def run_drill(run: Any, name: str, duration: float, bag: Path | None,
+def run_drill(run: Any, name: str, sc: Any, bag: Path | None,
               progress: Callable[[float], None]) -> DrillWatch:  # fmt: skip
-    """Runs the drill ``name`` on the started cell ``run``, then ``duration`` seconds more (after
-    the drill's own reset and start, if it resumes; module doc)."""
+    """Runs the drill ``name`` on the started cell ``run``, then the scenario ``sc``'s duration
+    more (after the drill's own reset and start, if it resumes; module doc), longer for a
+    starved insertion (:mod:`~fbcc_ros.harness.insertion_time`)."""
     drill = DRILLS[name]
     watch = DrillWatch(name)
     observer = run.observer
@@ -330,7 +332,7 @@ def run_drill(run: Any, name: str, duration: float, bag: Path | None,
     if drill.resume:
         run.spin_for(HOLD_FOR, clock)
         _resume(run, watch)
-    run.spin_for(duration, clock)  # a resumed insertion has its whole time
+    spin_insertion(run, sc.duration, sc.rate_hz, clock)  # a resumed one has its whole time
     run.fresh_status((MOCK, COMPENSATION, CONTROLLER))  # reports that cover the whole run
     mock, comp, controller = (observer.values(n) for n in (MOCK, COMPENSATION, CONTROLLER))
     if controller.get("warnings"):  # a sensor's rate, and the like

@@ -7,7 +7,8 @@
 Starts the four nodes (mock_cell, dynamic_compensation, kinematics, fbcc_controller) in one
 process on rclpy's EventsExecutor, or with ``--processes`` each in its own process, over real
 DDS. The compensation tares the sensor (no contact yet), then the insertion is started through
-the controller's ``fbcc/start`` service, and the cell runs for the scenario's duration. The
+the controller's ``fbcc/start`` service, and the cell runs for the scenario's duration (longer
+for a starved insertion: :mod:`fbcc_ros.harness.insertion_time`). The
 true features and responses the mock publishes (``mock_cell/truth``) are scored exactly as
 ``fbcc-sim`` scores a simulation; the summary (with the CPU each node used) is printed and
 written to DIR/summary.json. The session is recorded (``fbcc_record``, in its own process so
@@ -42,6 +43,7 @@ from fbcc_ros.harness.cell_nodes import CellSetup, deadband_warnings, profile_of
 from fbcc_ros.harness.cell_nodes import cell_nodes as harness_cell_nodes
 from fbcc_ros.harness.cell_run import CellRun, NodeSpec
 from fbcc_ros.harness.fault_drill import DRILLS, describe, run_drill
+from fbcc_ros.harness.insertion_time import spin_insertion
 from fbcc_ros.nodes.fbcc_record import CELL_TOPICS, default_folder
 from fbcc_ros.ros import topics
 
@@ -60,11 +62,8 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--plant", choices=PLANTS, default="", help="the mock cell's contact: "
                         "model (eq. 5-13) or mujoco (docs/plant.md); default: the scenario's")
-    parser.add_argument(
-        "--processes",
-        action="store_true",
-        help="each node in its own process (as ros2 run would start them)",
-    )
+    parser.add_argument("--processes", action="store_true",
+                        help="each node in its own process (as ros2 run would start them)")
     record = parser.add_mutually_exclusive_group()
     record.add_argument("--bag", type=Path, default=None,
                         help="bag folder to record into (new or empty; default "
@@ -284,9 +283,9 @@ def run_cell(
                   flush=True)  # fmt: skip
 
         if fault:
-            watch = run_drill(run, fault, sc.duration, bag, progress)
+            watch = run_drill(run, fault, sc, bag, progress)
         else:
-            run.spin_for(sc.duration, progress)
+            spin_insertion(run, sc.duration, sc.rate_hz, progress)
         elapsed = time.monotonic() - t0
         cpu = {k: (v - cpu0[k]) / elapsed for k, v in run.cpu().items()}
         truth = obs.truth_since(first)

@@ -56,6 +56,9 @@ STATE_LAYOUT = [(" ".join(STATE_FIELDS), len(STATE_FIELDS), len(STATE_FIELDS))]
 SERVICE_QOS = QoSProfile(depth=100)
 #: Contact-state answers published per watchdog tick (100 Hz): twice the 200 Hz they come at.
 STATES_PER_TICK = 4
+#: How long a stopping controller waits for its last contact states to be acknowledged [s]
+#: (hundreds at once on a busy machine: ACKED_WITHIN's single hold is not enough).
+STATES_ACKED_WITHIN = 2.0
 
 
 class FbccControllerNode(Node):
@@ -243,6 +246,17 @@ class FbccControllerNode(Node):
             pub.wait_for_all_acked(Timeout(seconds=ACKED_WITHIN))
 
     def destroy_node(self) -> None:
+        """Stopping: the contact-state filter's answers still owed are sent first (on a busy
+        machine it lags the loop; the recording then holds the whole insertion's)."""
+        worker = self.stage.state_worker
+        if worker is not None and worker.alive and worker.behind:
+            owed = worker.behind
+            rows = self.stage.state_estimates(owed, drain=True)
+            for row in rows:
+                self.pub_states.publish(encode_array(row, STATE_LAYOUT))
+            self.pub_states.wait_for_all_acked(Timeout(seconds=STATES_ACKED_WITHIN))
+            self.get_logger().info(f"stopping: the contact-state filter's last {len(rows)} of "
+                                   f"{owed} estimates owed sent")  # fmt: skip
         self.stage.close()
         super().destroy_node()
 

@@ -211,13 +211,16 @@ class ControllerStage:
             self.state_worker = StateWorker(self.nominal, self.state_stiffness)
         return self.state_worker is not None
 
-    def state_estimates(self, most: int) -> list[list[float]]:
+    def state_estimates(self, most: int, drain: bool = False) -> list[list[float]]:
         """At most ``most`` of the filter's answers come since the last call, oldest first:
         each the stamp of the sample it follows, then P(state) of XOZ and of YOZ over
-        ``segmentation.STATES``."""
-        if self.state_worker is None:
+        ``segmentation.STATES``. ``drain``: all of them, those still owed waited for
+        (``StateWorker.drain``)."""
+        worker = self.state_worker
+        if worker is None:
             return []
-        return [[stamp, *p.ravel().tolist()] for stamp, p in self.state_worker.answers(most)]
+        answers = worker.drain() if drain else worker.answers(most)
+        return [[stamp, *p.ravel().tolist()] for stamp, p in answers]
 
     def close(self) -> None:
         """Stop the contact-state filter's process."""

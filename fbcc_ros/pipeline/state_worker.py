@@ -24,9 +24,11 @@ from __future__ import annotations
 
 import os
 import pickle
+import select
 import struct
 import subprocess
 import sys
+import time
 from typing import Any, BinaryIO
 
 import numpy as np
@@ -45,6 +47,10 @@ LOWEST = ("os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))"
           if hasattr(os, "SCHED_IDLE") else "os.nice(19)")  # fmt: skip
 #: How long closing waits for the child before it is killed [s].
 CLOSE_TIMEOUT = 2.0
+#: How long a stopping controller waits for the answers still owed [s] (:meth:`StateWorker.drain`):
+#: the child, idle-scheduled, gets the cores once the loop stops; on a two-core machine busy
+#: with the whole cell it had answered none of ~800 samples when a 4 s insertion ended.
+DRAIN_WITHIN = 10.0
 #: The pipes' size [bytes]: ~4000 samples, 20 s of them at 200 Hz, where the default 64 KiB
 #: held 1.3 s and a loaded machine's filter fell further behind than that in its first second
 #: (samples were dropped).
@@ -201,6 +207,16 @@ class StateWorker:
                 out.append(item[1:])
         return out
 
+    def drain(self, timeout: float = DRAIN_WITHIN) -> list[tuple[float, FloatArray]]:
+        """Every answer still to come for what was handed over, waiting up to ``timeout`` for
+        the child's backlog (a stopping controller: the insertion's estimates are all sent)."""
+        out = self.answers()
+        end = time.monotonic() + timeout
+        while self.behind > 0 and self.alive and (left := end - time.monotonic()) > 0:
+            select.select([self._out], [], [], min(left, 0.1))
+            out += self.answers()
+        return out
+
     @property
     def alive(self) -> bool:
         return self.exit_code is None
@@ -211,8 +227,8 @@ class StateWorker:
         return self._process.poll()
 
     def close(self) -> None:
-        """Stop the child now, its backlog unanswered (killed if it does not end within
-        CLOSE_TIMEOUT)."""
+        """Stop the child now, any backlog unanswered (killed if it does not end within
+        CLOSE_TIMEOUT; :meth:`drain` first to have it)."""
         assert self._process.stdin is not None and self._process.stdout is not None
         try:
             self._process.stdin.close()

@@ -23,9 +23,7 @@ ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "config" / "scenarios" / "bringup_interference.yaml"
 
 
-#: The filter's process runs only where the loop leaves a core idle: a machine busy with
-#: something else starves it (under a CPU hog on one of two cores it answered 21 of ~800
-#: samples before the run ended). Such a run is repeated, at most twice, as the live loop's are.
+#: A live cell over DDS on a shared two-core machine: repeated, at most twice, as the loop's are.
 @pytest.mark.flaky(reruns=2)
 def test_the_controllers_contact_states_are_the_filters_along_the_recorded_session(
     tmp_path: Path,
@@ -60,15 +58,16 @@ def test_the_controllers_contact_states_are_the_filters_along_the_recorded_sessi
     assert online is not None and offline is not None
     # the session recorded is the whole run: it spans the scenario's duration (how many
     # filter updates fill it, one per fifth loop cycle, is the loop's: 802 on an idle machine,
-    # 695 on a slow one). The filter may still be catching up when the run ends (800 answered
-    # on an idle machine, 327 to 483 in CI runs): a prefix, of at least the first second (200)
+    # ~390 on one that delivers a third of the cycles). The filter lags the loop on a busy
+    # machine (it had answered none when a starved run ended); the stopping controller sends
+    # what it still owed, so every update of the insertion is recorded
     duration = scenario_io.load(SCENARIO).duration
     n = len(online["t"])
-    assert n == len(rows) and n >= 200, n
+    assert n == len(rows) == len(offline["t"]) and n >= 100, (n, len(offline["t"]))
     assert offline["t"][-1] > 0.95 * duration, (offline["t"][-1], duration)
     np.testing.assert_array_equal(np.sort(rows[:, 0]) - s.t0, online["t"])
-    np.testing.assert_array_equal(online["t"], offline["t"][:n])
-    np.testing.assert_allclose(online["p"], offline["p"][:n], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(online["t"], offline["t"])
+    np.testing.assert_allclose(online["p"], offline["p"], rtol=0, atol=1e-12)
 
 
 def test_the_filter_starts_for_a_listener_and_its_end_is_said_once(tmp_path: Path) -> None:

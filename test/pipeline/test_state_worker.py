@@ -4,8 +4,6 @@ gives offline, starts again on a new insertion, and stops when closed."""
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 
@@ -25,15 +23,6 @@ def insertion() -> tuple[object, np.ndarray, np.ndarray]:
     _, traj = simulate(sc, "fbcc", seed=0)
     assert traj is not None
     return sc.geometry, traj.pose[:400, 0].copy(), traj.measured[:400, 0].copy()
-
-
-def _drain(worker: StateWorker, expected: int, timeout: float = 60.0) -> list:
-    got: list = []
-    end = time.monotonic() + timeout
-    while len(got) < expected and time.monotonic() < end:
-        got += worker.answers()
-        time.sleep(0.01)
-    return got
 
 
 @pytest.mark.parametrize("stiffness", [None, UNKNOWN_STIFFNESS])
@@ -57,13 +46,13 @@ def test_the_worker_answers_as_the_filter_along_the_insertion(insertion, stiffne
     try:
         insert()
         assert worker.sent == feed.sent == len(rows)
-        got = _drain(worker, len(rows))
+        got = worker.drain(timeout=60.0)  # all of them, the backlog waited for
         assert [stamp for stamp, _ in got] == [float(k) for k in rows]
         np.testing.assert_array_equal(np.array([p for _, p in got]), expected)
         assert worker.behind == 0 and worker.ready
         # a new insertion starts a new filter: the same samples give the same answers
         insert()
-        again = _drain(worker, len(rows))
+        again = worker.drain(timeout=60.0)
         np.testing.assert_array_equal(np.array([p for _, p in again]), expected)
     finally:
         worker.close()
