@@ -12,6 +12,9 @@ import pytest
 from fbcc_ros.harness import insertion_time
 from fbcc_ros.harness.insertion_time import MAX_STRETCH, spin_insertion
 
+#: judged on the wall clock: run alone (test/conftest.py)
+pytestmark = pytest.mark.realtime
+
 RATE = 1000.0
 DURATION = 0.2
 
