@@ -17,7 +17,7 @@ else
   echo "== pytest: the tests off the wall clock, on every core"
   .venv/bin/python -m pytest -m "not realtime" -n auto --durations=15 || status=$?
   echo "== pytest: the real-time tests, one at a time"
-  .venv/bin/python -m pytest -m realtime --durations=15 || status=$?
+  .venv/bin/python -m pytest -m realtime --durations=15 --rerun-show-tracebacks || status=$?
   [ "$status" -eq 0 ] || exit "$status"
 fi
 # the launch file with the real Jazzy `ros2 launch`, built from the sources ../shared carries
