@@ -64,6 +64,8 @@ def test_a_fault_drill_ends_safe(name: str, mode: str, tmp_path: Path, capfd) ->
     processes = ["--processes"] if mode == "processes" else []
     status = bringup_main([str(SCENARIO), "--fault", name, "--out", str(tmp_path), *processes])
     out = capfd.readouterr()
+    said = (status, out.out[-2000:], out.err[-2000:])  # a run that ended early says why
+    assert (tmp_path / "summary.json").exists(), said
     summary = json.loads((tmp_path / "summary.json").read_text())
     drill = summary["fault_drill"]
     assert status == 0 and drill["safe"] and drill["as_expected"], (drill, out.out[-2000:])
