@@ -177,7 +177,7 @@ class CellRun:
                 self.chained.append(f"{up_name}.{outlet} -> {down_name}.{callback}")
 
     def restart(self, name: str, parameters: dict[str, Any] | None = None,
-                timeout: float = 30.0) -> None:  # fmt: skip
+                timeout: float = 60.0) -> None:  # fmt: skip
         """Kills the node ``name`` and starts it anew (with ``parameters`` changed, if given)
         while the others run on; returns once it is up (its parameter services answer).
 
