@@ -248,10 +248,8 @@ class FbccControllerNode(Node):
     def destroy_node(self) -> None:
         """Stopping: the contact-state filter's answers still owed are sent first (on a busy
         machine it lags the loop; the recording then holds the whole insertion's)."""
-        worker = self.stage.state_worker
-        if worker is not None and worker.alive and worker.behind:
-            owed = worker.behind
-            rows = self.stage.state_estimates(owed, drain=True)
+        rows, owed = self.stage.drain_state_estimates()
+        if owed:
             for row in rows:
                 self.pub_states.publish(encode_array(row, STATE_LAYOUT))
             self.pub_states.wait_for_all_acked(Timeout(seconds=STATES_ACKED_WITHIN))

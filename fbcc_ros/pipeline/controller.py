@@ -211,16 +211,22 @@ class ControllerStage:
             self.state_worker = StateWorker(self.nominal, self.state_stiffness)
         return self.state_worker is not None
 
-    def state_estimates(self, most: int, drain: bool = False) -> list[list[float]]:
+    def state_estimates(self, most: int) -> list[list[float]]:
         """At most ``most`` of the filter's answers come since the last call, oldest first:
         each the stamp of the sample it follows, then P(state) of XOZ and of YOZ over
-        ``segmentation.STATES``. ``drain``: all of them, those still owed waited for
-        (``StateWorker.drain``)."""
-        worker = self.state_worker
-        if worker is None:
+        ``segmentation.STATES``."""
+        if self.state_worker is None:
             return []
-        answers = worker.drain() if drain else worker.answers(most)
-        return [[stamp, *p.ravel().tolist()] for stamp, p in answers]
+        return _state_rows(self.state_worker.answers(most))
+
+    def drain_state_estimates(self) -> tuple[list[list[float]], int]:
+        """Stopping: every answer still owed, waited for (``StateWorker.drain``), as
+        :meth:`state_estimates` gives them, and how many were owed."""
+        worker = self.state_worker
+        if worker is None or not worker.alive or not worker.behind:
+            return [], 0
+        owed = worker.behind
+        return _state_rows(worker.drain()), owed
 
     def close(self) -> None:
         """Stop the contact-state filter's process."""
@@ -261,3 +267,8 @@ class ControllerStage:
             return None
         xoz, yoz = response_state(self.response, self.sup.features[2], self.nominal)
         return f"{xoz}/{yoz}"
+
+
+def _state_rows(answers: list[tuple[float, FloatArray]]) -> list[list[float]]:
+    """The filter's answers as rows: the stamp, then P(state) per plane."""
+    return [[stamp, *p.ravel().tolist()] for stamp, p in answers]
