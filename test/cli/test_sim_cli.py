@@ -45,11 +45,12 @@ def test_sim_single_run_writes_a_flat_summary(tmp_path: Path) -> None:
 
 def test_sim_runs_a_scenario_on_the_plant_named(tmp_path: Path, capsys) -> None:
     """``--plant mujoco`` runs the same scenario on MuJoCo: 0.1 mm off, ten times the
-    clearance, with no chamfer, the peg stands on the hole's top face, which the model has not;
-    a plant that is not one is refused by argparse."""
+    clearance, with no chamfer and the law's hole search off, the peg stands on the hole's top
+    face, which the model has not; a plant that is not one is refused by argparse."""
     scenario = tmp_path / "short.yaml"
     scenario.write_text("geometry: {hole_radius: 0.00505, peg_radius: 0.00504, hole_depth: 0.01,"
                         " base_thickness: 0.005, friction: 0.3, stiffness: 1.84e+8}\n"
+                        "controller: {type: fbcc, params: {search_range: 0}}\n"
                         "initial: {dx: 1.0e-4, dy: 0, theta_x: 0, theta_y: 0}\n"
                         "holder: {lateral: 5.0e+4, angular: 30}\nduration: 0.4\n")
     out = {p: tmp_path / p for p in ("model", "mujoco")}

@@ -44,6 +44,10 @@ under Depth): a tilt step then moves the offset row's effort ``u_d / U_d`` no fa
 in one stated ``loop_delay``. As a stiff part comes free its tilt row's stiffness falls and
 its gain rises; turning faster than the response can come back, the tilt passes its zero.
 
+**Finding the hole.** A clearance fit's peg that lands on the hole's top face beside the bore
+moves away from the face's centre of pressure, read from the tilt rows at the entry, pressing
+with ``search_force``, for at most ``search_range`` (:mod:`fbcc_ros.core.control.hole_search`).
+
 **Lever friction.** A(l)'s lever (eq. 24) holds the axial friction's moment at μR. With the
 scenario's μ where the part's differs by Δμ, cos γ Δμ of every lateral force reads as tilt (0.044
 for Δμ = 0.15 here): while the offset rows correct the entry it turns aligned tilts past zero

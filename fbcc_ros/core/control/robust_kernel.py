@@ -14,6 +14,7 @@ from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import PegHole
 from fbcc_ros.core.contact.segmentation import direct_row, lever_at
 from fbcc_ros.core.control import guard as guard_mod
+from fbcc_ros.core.control import hole_search as search
 from fbcc_ros.core.control import identification as ident
 from fbcc_ros.core.control.loop_design import design
 from fbcc_ros.core.control.robust_params import DITHER_FRACTIONS, NOTCH_QUALITY, RobustParams
@@ -52,7 +53,8 @@ C_DEPTH_F = 64  # the depth loop's low-pass of each row (x, v)
 C_DNOTCH = 72  # the depth loop's notches, as C_NOTCH
 C_SAMPLES = 88  # samples since the start (the dither's phase)
 C_LEVER = 89  # the lever's friction (identification.N_LEVER columns; 0: the scenario's μ)
-N_MAIN = C_LEVER + ident.N_LEVER
+C_SEARCHED = C_LEVER + ident.N_LEVER  # the hole search's travel so far [m] (hole_search)
+N_MAIN = C_SEARCHED + 1
 
 # Indices into the parameter vector of the kernel.
 (P_WC, P_DB_X, P_DB_Y, P_DB_TX, P_DB_TY, P_FORGET, P_KMIN, P_RELEASE, P_DITH_F,
@@ -71,7 +73,11 @@ P_TILT_RATE = P_SETTLE_GAIN + 1  # the fastest a tilt row turns the peg [rad/s]
 P_FRICTION_MAX = P_TILT_RATE + 1  # the largest friction the lever may take (0: off)
 P_ENTRY_STEP = P_FRICTION_MAX + 1  # the depth step a period allows through the entry [m]
 P_ENTRY_DEPTH = P_ENTRY_STEP + 1  # the entry's depth [m]
-N_PARAMS = P_ENTRY_DEPTH + 1
+P_SEARCH_SPEED = P_ENTRY_DEPTH + 1  # the hole search's speed [m/s] (hole_search)
+P_SEARCH_RANGE = P_SEARCH_SPEED + 1  # its travel [m] (0: off)
+P_SEARCH_FORCE = P_SEARCH_RANGE + 1  # the axial force it holds [N]
+P_LEAN_ARM = P_SEARCH_FORCE + 1  # the acting point's height over the tip if on the peg [m]
+N_PARAMS = P_LEAN_ARM + 1
 
 
 def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray:
@@ -134,6 +140,12 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
     prm[P_TILT_RATE] = p.tilt_rate
     prm[P_FRICTION_MAX] = p.friction_max
     prm[P_ENTRY_STEP], prm[P_ENTRY_DEPTH] = p.entry_step, p.entry_depth
+    prm[P_SEARCH_SPEED] = p.search_speed
+    # an interference fit's peg is wider than its bore: it always meets the rim, and only a
+    # chamfer leads it in (hole_search)
+    prm[P_SEARCH_RANGE] = p.search_range if nom.hole_radius > nom.peg_radius else 0.0
+    prm[P_SEARCH_FORCE] = p.search_force
+    prm[P_LEAN_ARM] = nom.peg_length if nom.acting_point == "peg_top" else 0.0
     prm[P_DEPTH_F : P_DEPTH_F + 6] = second_order_coefficients(
         p.depth_filter_frequency, p.filter_damping, dt)  # fmt: skip
     # the depth loop's effort is a row above its noise through that faster filter, as the
@@ -229,6 +241,23 @@ def robust_rows(
         xf = m[C_X : C_X + 5]
         vf = m[C_V : C_V + 5]
         second_order_row(c, xf, vf, u)
+        # the hole search: the peg on the top face beside the bore (hole_search)
+        searching = False
+        started = m[C_SEARCHED] > 0.0
+        if (m[C_STOPPED] == 0.0 and m[C_REACHED] == 0.0 and m[C_SEARCHED] < prm[P_SEARCH_RANGE]
+                and search.within_reach(depth, prm[P_TILT_DEPTH], started)):
+            lever = lever_at(depth, base, prm[P_PER_DEPTH], prm[P_HOLE_DEPTH])
+            sx, sy = search.face_support(w[i, 2], xf[3], xf[4], lever, prm[P_HOLE_RADIUS],
+                                         prm[P_LEAN_ARM], math.tan(x[i, 4]), math.tan(x[i, 3]))
+            support = math.hypot(sx, sy)
+            searching = search.on_face(w[i, 2], f_lat, support,
+                                       max(prm[P_DB_TX], prm[P_DB_TY]), prm[P_SEARCH_FORCE],
+                                       started)
+            if searching:
+                step = prm[P_SEARCH_SPEED] * dt
+                m[C_INT] += step * sx / support  # the command moves away from the support
+                m[C_INT + 1] += step * sy / support
+                m[C_SEARCHED] += step
         # oscillation guard on each filtered row: a trip backs that row's gain off, holds depth
         effort = 0.0
         j_max = 0
@@ -285,7 +314,8 @@ def robust_rows(
             # at the depth the fit is no longer excited while the tilt's stiffness still
             # rises (as l³): the loops settle at a fraction of ω_c, inside the gain margin
             wc = prm[P_WC] if m[C_REACHED] == 0.0 else prm[P_SETTLE_GAIN] * prm[P_WC]
-            m[C_INT + ident.ROWS[r_d]] += wc * v_d * dt
+            if not searching:  # on the face its friction is not an offset
+                m[C_INT + ident.ROWS[r_d]] += wc * v_d * dt
             if depth >= prm[P_TILT_DEPTH]:  # at the entry a tilt row cannot tell tilt
                 # no faster than tilt_rate: a faster turn passes zero before it is seen
                 turn = prm[P_TILT_RATE] * dt
@@ -321,6 +351,8 @@ def robust_rows(
             rate = min(max(rate, -v), v)
         if depth < prm[P_ENTRY_DEPTH]:  # through the rim: one step a sample, whatever the rate
             rate = min(rate, prm[P_ENTRY_STEP] / prm[P_DT])
+        if searching:
+            rate = min(rate, search.force_rate(w[i, 2], prm[P_SEARCH_FORCE], prm[P_WL]))
         if m[C_T] < m[C_HOLD]:
             rate = min(rate, 0.0)
         if w[i, 2] > prm[P_FZ_BACK]:

@@ -121,6 +121,15 @@ class RobustParams:
             (at 100 Hz a 5 mm/s insertion steps 50 µm, which stopped stiff parts at the guard
             on the model with its rim, ``docs/integration.md``). At 1 kHz and 5 mm/s the
             step is the insertion's own.
+        search_speed, search_range, search_force: Finding the hole
+            (:mod:`fbcc_ros.core.control.hole_search`): a peg the top face carries beside the
+            bore moves toward the hole at ``search_speed`` [m/s], away from the face's centre
+            of pressure, for at most ``search_range`` [m] of travel (0: no search), pressing
+            with at most about ``search_force`` [N] meanwhile. The range covers several times
+            the offset the law is meant for (0.1 mm) and the grip's deflection under the
+            face's friction before the peg slides (μ ``search_force`` over the tip's lateral
+            stiffness, an angular grip's tipping included: 0.15 mm at μ 0.3 in a grip of
+            5e4 N/m and 30 N·m/rad at 50 mm).
         offset_resolution, tilt_resolution: The smallest offset [m] and tilt [rad] the law
             resolves: each row's stiffness is at least its filtered noise over this, so noise
             alone cannot drive a row by more.
@@ -168,6 +177,9 @@ class RobustParams:
     friction_max: float = 0.8
     entry_step: float = 5e-6
     entry_depth: float = 6e-4
+    search_speed: float = 1e-3
+    search_range: float = 1e-3
+    search_force: float = 5.0
     F_ext_limit: float = 300.0
 
     POSITIVE: ClassVar[tuple[str, ...]] = (
@@ -177,7 +189,7 @@ class RobustParams:
         "depth_filter_frequency", "depth_lead", "fz_back_off", "guard_amplitude",
         "guard_backoff", "guard_hold", "F_ext_limit", "guard_effort", "settle_gain",
         "offset_resolution", "tilt_resolution", "phase_margin", "lateral_lead", "tilt_lead",
-        "tilt_rate", "entry_step",
+        "tilt_rate", "entry_step", "search_speed", "search_force",
     )  # fmt: skip
 
     def __post_init__(self) -> None:
@@ -209,6 +221,9 @@ class RobustParams:
         e = self.entry_depth
         if not (math.isfinite(e) and 0.0 <= e <= 0.005):
             raise ConfigError("entry_depth", e, "a depth in [0, 0.005] m (0: off)")
+        s = self.search_range
+        if isinstance(s, bool) or not isinstance(s, (int, float)) or not 0.0 <= s <= 0.01:
+            raise ConfigError("search_range", s, "a travel in [0, 0.01] m (0: no search)")
         f = self.friction_max
         if isinstance(f, bool) or not isinstance(f, (int, float)) or not 0.0 <= f <= 2.0:
             raise ConfigError("friction_max", f, "a friction coefficient in [0, 2] (0: off)")

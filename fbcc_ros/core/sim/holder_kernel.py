@@ -36,6 +36,9 @@ ARMIJO = 1e-4
 SLOW = 0.25
 #: Smallest step fraction of the line search: below it a row gives up for this call.
 T_MIN = 1e-10
+#: Bisections for the contact's onset between a deflection off the wall and none (2^-40 of a
+#: deflection of microns to millimetres: under a picometre).
+ONSET_BISECTIONS = 40
 
 
 @numba.njit(cache=True, inline="always")  # type: ignore[misc]
@@ -202,6 +205,28 @@ def solve_rows(
             merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, rim_ca, rim_sa, li,
                                   inv_dt, vbuf, work, k, tol, fbuf, wbuf, r, n_q)  # fmt: skip
             n_eval += 1
+            if fallback == 1 and not _touches_nothing(wbuf):
+                # the last solution touches nothing and no deflection is in contact: the peg
+                # released moves toward the hand until it meets the solid, so start at that
+                # onset on the way, not deep in it (a hand pressed 0.1 mm past a face it slid
+                # off: kN that the trust region's micron steps never leave)
+                held, free = 0.0, 1.0  # fractions of the last deflection: in contact, not
+                for _ in range(ONSET_BISECTIONS):
+                    mid = 0.5 * (held + free)
+                    for m in range(n_q):
+                        qt[m] = mid * back[i, m]
+                    _row_residual(xr[i], h[i], qt, tab, peg_top, ca, sa, rim_ca, rim_sa, li,
+                                  inv_dt, vbuf, work, k, tol, fbuf_t, wbuf_t, rt, n_q)  # fmt: skip
+                    if _touches_nothing(wbuf_t):
+                        free = mid
+                    else:
+                        held = mid
+                for m in range(n_q):
+                    qi[m] = held * back[i, m]
+                merit = _row_residual(xr[i], h[i], qi, tab, peg_top, ca, sa, rim_ca, rim_sa,
+                                      li, inv_dt, vbuf, work, k, tol, fbuf, wbuf, r,
+                                      n_q)  # fmt: skip
+                n_eval += ONSET_BISECTIONS + 1
         it, t, fresh = 0, 1.0, False
         done = _converged(r, n_q)
         while not done and it < max_iter:

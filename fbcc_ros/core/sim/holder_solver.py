@@ -17,7 +17,10 @@ and "converged" means ``|residual| <= 1`` in every coordinate):
   or from a given ``delta0``;
 * a start that touches nothing with the holder deflected is no equilibrium, and there the
   Jacobian is the holder's alone, which knows nothing of the wall: such a start falls back on
-  the last solution, then on no deflection (the solution if that touches nothing);
+  the last solution, then on no deflection (the solution if that touches nothing), or, where no
+  deflection is in contact, on the contact's onset between the two (the peg let go moves toward
+  the hand until it meets the solid: a peg that slid off a face it was pressed on by 0.1 mm
+  started deep in the hole's block, where the micron steps below never got out of kN);
 * so is a trial point of the iteration that touches nothing with the holder deflected (a
   Newton step from deep in a stiff wall can land there with a smaller residual, a peg tilted
   by degrees in its grasp with no force on it): it is replaced by no deflection, the exact
