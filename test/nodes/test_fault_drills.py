@@ -73,7 +73,7 @@ def test_a_fault_drill_ends_safe(name: str, mode: str, tmp_path: Path, capfd) ->
     outcome = DRILLS[name].expected
     assert (drill["outcome"], drill["name"]) == (outcome, name), drill
     said = [drill["reason"], *drill["faults"]]
-    assert any(r in s for r in REASONS[name] for s in said), drill
+    assert any(r in s for r in REASONS[name] for s in said), (said, drill["outcome"])
     # the safety figures themselves, from the mock's ground truth and the joint commands
     assert 0.0 < drill["peak_force"] <= drill["force_limit"] == 300.0, drill
     assert 0.0 < drill["peak_moment"] <= drill["moment_limit"] == 30.0, drill
