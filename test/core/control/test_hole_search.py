@@ -105,6 +105,16 @@ def test_no_search_where_the_face_does_not_say_where_the_hole_is(case: str) -> N
     assert np.abs(commands[:, :2] - commands[0, :2]).max() < 5e-6
 
 
+@pytest.mark.parametrize(("name", "value"), [
+    ("search_speed", 5e-4), ("search_range", 2e-4), ("search_force", 2.0)])  # fmt: skip
+def test_every_search_parameter_changes_the_commands(name: str, value: float) -> None:
+    """Each of the search's parameters acts: changed, the commands on the face are not the same
+    (the travel's pace, its end, and the force the depth holds against 4 N)."""
+    default = _on_the_face(CLEARANCE, RobustParams(), (3e-3, 0.0), 4.0, 0.4)
+    changed = _on_the_face(CLEARANCE, RobustParams(**{name: value}), (3e-3, 0.0), 4.0, 0.4)
+    assert not np.array_equal(default, changed), name
+
+
 def _off_an_unchamfered_hole(plant: str, **params: Any) -> dict[str, Any]:
     """The 10 µm pair 0.1 mm off in x and y, no chamfer, in a compliant grip, with the hole's
     rim (its top face), 4 mm deep: the summary of the robust law's run."""
