@@ -194,6 +194,14 @@ def lever_at(depth: float, base: float, per_depth: float, hole_depth: float) -> 
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
+def tilt_terms(lever: float, hole_radius: float) -> tuple[float, float]:
+    """sin(gamma) and cos(gamma) / R of eq. (28)-(29) for eq. 24's ``lever``:
+    tan(gamma) = lever / R."""
+    gamma = math.atan(lever / hole_radius)
+    return math.sin(gamma), math.cos(gamma) / hole_radius
+
+
+@numba.njit(cache=True)  # type: ignore[misc]
 def direct_row(
     w: FloatArray,
     depth: float,
@@ -204,9 +212,7 @@ def direct_row(
     out: FloatArray,
 ) -> None:
     """One row of ``A(l) F`` into ``out`` (5,); the lever is ``PegHole.lever_terms``'s."""
-    # gamma of eq. (29): tan(gamma) = lever / R, lever of eq. (24)
-    gamma = math.atan(lever_at(depth, base, per_depth, hole_depth) / hole_radius)
-    sg, cg_r = math.sin(gamma), math.cos(gamma) / hole_radius
+    sg, cg_r = tilt_terms(lever_at(depth, base, per_depth, hole_depth), hole_radius)
     out[0], out[1], out[2] = w[0], w[1], w[2]
     out[3] = sg * w[1] + cg_r * w[3]  # theta_x: sin(gamma) Fy + cos(gamma) Mx / R
     out[4] = -sg * w[0] + cg_r * w[4]  # theta_y: -sin(gamma) Fx + cos(gamma) My / R

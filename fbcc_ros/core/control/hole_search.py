@@ -80,15 +80,14 @@ AXIAL_STIFFNESS = 1.0e6
 
 
 @numba.njit(cache=True, inline="always")  # type: ignore[misc]
-def face_support(fz: float, u_tx: float, u_ty: float, lever: float, hole_radius: float,
-                 lean_arm: float, tan_ty: float, tan_tx: float
-                 ) -> tuple[float, float]:  # fmt: skip
+def face_support(fz: float, u_tx: float, u_ty: float, cg_r: float, lean_arm: float,
+                 tan_ty: float, tan_tx: float) -> tuple[float, float]:
     """The face's support in the tilt rows' units (module doc): (c_x, c_y) F_z cos(γ) / R, c
     its centre of pressure from the tip's axis (``lean_arm`` > 0: the acting point rides on the
     peg that far over the tip) or from the acting point's (0: a point fixed in {H}), from F_z
-    and the filtered tilt rows (u_θx, u_θy) at the entry's ``lever``; ``tan_ty``, ``-tan_tx``
-    the lean t."""
-    back = fz * lean_arm / math.sqrt(hole_radius * hole_radius + lever * lever)  # cos(γ)/R
+    and the filtered tilt rows (u_θx, u_θy) with their ``cg_r`` = cos(γ) / R at the entry
+    (``segmentation.tilt_terms``); ``tan_ty``, ``-tan_tx`` the lean t."""
+    back = fz * lean_arm * cg_r
     return u_ty + back * tan_ty, -u_tx - back * tan_tx
 
 

@@ -12,7 +12,7 @@ import numpy as np
 
 from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import PegHole
-from fbcc_ros.core.contact.segmentation import direct_row, lever_at
+from fbcc_ros.core.contact.segmentation import direct_row, lever_at, tilt_terms
 from fbcc_ros.core.control import guard as guard_mod
 from fbcc_ros.core.control import hole_search as search
 from fbcc_ros.core.control import identification as ident
@@ -246,9 +246,10 @@ def robust_rows(
         started = m[C_SEARCHED] > 0.0
         if (m[C_STOPPED] == 0.0 and m[C_REACHED] == 0.0 and m[C_SEARCHED] < prm[P_SEARCH_RANGE]
                 and search.within_reach(depth, prm[P_TILT_DEPTH], started)):
-            lever = lever_at(depth, base, prm[P_PER_DEPTH], prm[P_HOLE_DEPTH])
-            sx, sy = search.face_support(w[i, 2], xf[3], xf[4], lever, prm[P_HOLE_RADIUS],
-                                         prm[P_LEAN_ARM], math.tan(x[i, 4]), math.tan(x[i, 3]))
+            _, cg_r = tilt_terms(lever_at(depth, base, prm[P_PER_DEPTH], prm[P_HOLE_DEPTH]),
+                                 prm[P_HOLE_RADIUS])  # fmt: skip
+            sx, sy = search.face_support(w[i, 2], xf[3], xf[4], cg_r, prm[P_LEAN_ARM],
+                                         math.tan(x[i, 4]), math.tan(x[i, 3]))
             support = math.hypot(sx, sy)
             searching = search.on_face(w[i, 2], f_lat, support,
                                        max(prm[P_DB_TX], prm[P_DB_TY]), prm[P_SEARCH_FORCE],
