@@ -48,6 +48,11 @@ its gain rises; turning faster than the response can come back, the tilt passes 
 moves away from the face's centre of pressure, read from the tilt rows at the entry, pressing
 with ``search_force``, for at most ``search_range`` (:mod:`fbcc_ros.core.control.hole_search`).
 
+**Freeing a wedged peg.** A clearance fit that stops at once in its bore with nothing in its rows
+(F_z up to ``wedge_force``) is wedged in two-point contact, whose wrench holds no tilt: the law
+pushes with ``search_force`` while it turns the tilt command in directions tried in turn, until
+the peg goes in (:mod:`fbcc_ros.core.control.wedge`).
+
 **Lever friction.** A(l)'s lever (eq. 24) holds the axial friction's moment at μR. With the
 scenario's μ where the part's differs by Δμ, cos γ Δμ of every lateral force reads as tilt (0.044
 for Δμ = 0.15 here): while the offset rows correct the entry it turns aligned tilts past zero

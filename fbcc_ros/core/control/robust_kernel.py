@@ -16,6 +16,7 @@ from fbcc_ros.core.contact.segmentation import direct_row, lever_at, tilt_terms
 from fbcc_ros.core.control import guard as guard_mod
 from fbcc_ros.core.control import hole_search as search
 from fbcc_ros.core.control import identification as ident
+from fbcc_ros.core.control import wedge
 from fbcc_ros.core.control.loop_design import design
 from fbcc_ros.core.control.robust_params import DITHER_FRACTIONS, NOTCH_QUALITY, RobustParams
 from fbcc_ros.core.filters import (
@@ -54,7 +55,8 @@ C_DNOTCH = 72  # the depth loop's notches, as C_NOTCH
 C_SAMPLES = 88  # samples since the start (the dither's phase)
 C_LEVER = 89  # the lever's friction (identification.N_LEVER columns; 0: the scenario's μ)
 C_SEARCHED = C_LEVER + ident.N_LEVER  # the hole search's travel so far [m] (hole_search)
-N_MAIN = C_SEARCHED + 1
+C_WEDGE = C_SEARCHED + 1  # a wedge's state (wedge.N_STATE columns)
+N_MAIN = C_WEDGE + wedge.N_STATE
 
 # Indices into the parameter vector of the kernel.
 (P_WC, P_DB_X, P_DB_Y, P_DB_TX, P_DB_TY, P_FORGET, P_KMIN, P_RELEASE, P_DITH_F,
@@ -77,7 +79,9 @@ P_SEARCH_SPEED = P_ENTRY_DEPTH + 1  # the hole search's speed [m/s] (hole_search
 P_SEARCH_RANGE = P_SEARCH_SPEED + 1  # its travel [m] (0: off)
 P_SEARCH_FORCE = P_SEARCH_RANGE + 1  # the axial force it holds [N]
 P_LEAN_ARM = P_SEARCH_FORCE + 1  # the acting point's height over the tip if on the peg [m]
-N_PARAMS = P_LEAN_ARM + 1
+P_WEDGE_FORCE = P_LEAN_ARM + 1  # the axial force of a wedged clearance fit [N] (0: none)
+P_WEDGE_DEPTHS = P_WEDGE_FORCE + 1  # the depths between which it can wedge (2) [m]
+N_PARAMS = P_WEDGE_DEPTHS + 2
 
 
 def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray:
@@ -145,6 +149,9 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
     # chamfer leads it in (hole_search)
     prm[P_SEARCH_RANGE] = p.search_range if nom.hole_radius > nom.peg_radius else 0.0
     prm[P_SEARCH_FORCE] = p.search_force
+    prm[P_WEDGE_FORCE] = p.wedge_force if nom.hole_radius > nom.peg_radius else 0.0
+    prm[P_WEDGE_DEPTHS : P_WEDGE_DEPTHS + 2] = wedge.depths(nom.hole_radius, nom.peg_radius,
+                                                            nom.chamfer)  # fmt: skip
     prm[P_LEAN_ARM] = nom.peg_length if nom.acting_point == "peg_top" else 0.0
     prm[P_DEPTH_F : P_DEPTH_F + 6] = second_order_coefficients(
         p.depth_filter_frequency, p.filter_damping, dt)  # fmt: skip
@@ -321,6 +328,19 @@ def robust_rows(
                 # no faster than tilt_rate: a faster turn passes zero before it is seen
                 turn = prm[P_TILT_RATE] * dt
                 m[C_INT + ident.ROWS[r_t]] += min(max(wc * v_t * dt, -turn), turn)
+        # a wedged clearance fit turns its tilt to free itself (wedge)
+        stuck = False
+        if prm[P_WEDGE_FORCE] > 0.0:
+            wdg = m[C_WEDGE : C_WEDGE + wedge.N_STATE]
+            free = not searching and m[C_REACHED] == 0.0
+            stuck = free and wedge.wedged(wdg, depth, w[i, 2], free and effort < wedge.QUIET,
+                                          prm[P_WEDGE_FORCE], dt, prm[P_WEDGE_DEPTHS],
+                                          prm[P_WEDGE_DEPTHS + 1])  # fmt: skip
+            if stuck:
+                tx, ty = wedge.probe_step(wdg, dt, prm[P_TILT_RATE], xf[3], xf[4],
+                                          prm[P_WEDGE_FORCE])
+                m[C_INT + 3] -= tx  # the command moves by (tx, ty)
+                m[C_INT + 4] -= ty
         for j in range(4):
             f = ident.ROWS[j]
             k_used = k_row[j]
@@ -354,6 +374,9 @@ def robust_rows(
             rate = min(rate, prm[P_ENTRY_STEP] / prm[P_DT])
         if searching:
             rate = min(rate, search.force_rate(w[i, 2], prm[P_SEARCH_FORCE], prm[P_WL]))
+        if stuck:  # a light push while the probe turns the peg (wedge)
+            rate = prm[P_WL] * (prm[P_SEARCH_FORCE] - w[i, 2]) / search.AXIAL_STIFFNESS
+            rate = min(max(rate, -v), v)
         if m[C_T] < m[C_HOLD]:
             rate = min(rate, 0.0)
         if w[i, 2] > prm[P_FZ_BACK]:

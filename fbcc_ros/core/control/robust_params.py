@@ -130,6 +130,16 @@ class RobustParams:
             face's friction before the peg slides (μ ``search_force`` over the tip's lateral
             stiffness, an angular grip's tipping included: 0.15 mm at μ 0.3 in a grip of
             5e4 N/m and 30 N·m/rad at 50 mm).
+        wedge_force: Freeing a wedged peg (:mod:`fbcc_ros.core.control.wedge`): a clearance
+            fit's insertion that stops at once, its axial force reaching ``wedge_force`` [N]
+            within a few tens of microns of the arm's travel while its rows stay quiet, in
+            the bore where a two-point contact can wedge (Whitney: up to 4° of tilt, μ up to
+            0.5), is wedged. The depth loop then pushes with ``search_force`` only, and the
+            tilt command turns, at ``tilt_rate`` and at most 0.5° from where it
+            wedged, in directions tried in turn; one whose tilt rows push back by more than
+            ``wedge_force`` (in their units, a force at the rim) is left for the next. 0: off.
+            A wedge loaded to the back-off (250 N) could not be freed on MuJoCo; 20 N is about
+            the friction of the rows' hold (``offset_force``) at μ 0.5.
         offset_resolution, tilt_resolution: The smallest offset [m] and tilt [rad] the law
             resolves: each row's stiffness is at least its filtered noise over this, so noise
             alone cannot drive a row by more.
@@ -180,6 +190,7 @@ class RobustParams:
     search_speed: float = 1e-3
     search_range: float = 1e-3
     search_force: float = 5.0
+    wedge_force: float = 20.0
     F_ext_limit: float = 300.0
 
     POSITIVE: ClassVar[tuple[str, ...]] = (
@@ -221,6 +232,9 @@ class RobustParams:
         e = self.entry_depth
         if not (math.isfinite(e) and 0.0 <= e <= 0.005):
             raise ConfigError("entry_depth", e, "a depth in [0, 0.005] m (0: off)")
+        w, most = self.wedge_force, self.F_ext_limit
+        if isinstance(w, bool) or not isinstance(w, (int, float)) or not 0.0 <= w < most:
+            raise ConfigError("wedge_force", w, f"a force in [0, F_ext_limit = {most} N) (0: off)")
         s = self.search_range
         if isinstance(s, bool) or not isinstance(s, (int, float)) or not 0.0 <= s <= 0.01:
             raise ConfigError("search_range", s, "a travel in [0, 0.01] m (0: no search)")

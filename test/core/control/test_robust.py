@@ -178,7 +178,8 @@ def test_robust_is_the_default_and_labels_stay_available() -> None:
     for name, bad in (("settle_force", -0.1), ("depth_filter_frequency", 0.0),
                       ("depth_filter_frequency", "400"), ("friction_max", 3.0),
                       ("friction_max", True), ("search_range", 0.02), ("search_range", -1e-3),
-                      ("search_speed", 0.0), ("search_force", -5.0)):  # fmt: skip
+                      ("search_speed", 0.0), ("search_force", -5.0), ("wedge_force", -1.0),
+                      ("wedge_force", 300.0)):  # fmt: skip
         with pytest.raises(ConfigError, match=rf"params\.{name}") as err:
             params_from_mapping({name: bad})
         assert str(bad) in str(err.value) and "expected a" in str(err.value), err.value
@@ -337,7 +338,7 @@ _CHANGED: dict[str, tuple[object, dict[str, object]]] = {
     "guard_backoff": (2.0, {"guard_cycles": 2, "guard_amplitude": 10.0}),
     "guard_hold": (0.2, {"guard_cycles": 2, "guard_amplitude": 10.0}),
     "fz_back_off": (5.0, {}),  # below the run's peak Fz (9.3 N)
-    "F_ext_limit": (15.0, {"fz_back_off": 10.0}),
+    "F_ext_limit": (15.0, {"fz_back_off": 10.0, "wedge_force": 10.0}),
     "coupling_limit": (0.5, {}),
     "plane_gate": (False, {}),
     "friction_max": (0.0, {}),  # off: the lever keeps the scenario's μ
@@ -365,7 +366,8 @@ def _commands(params: RobustParams, duration: float = 1.5) -> np.ndarray:
 
 
 @pytest.mark.parametrize("name", [f.name for f in dataclasses.fields(RobustParams)
-                                  if not f.name.startswith("search_")])  # test_hole_search's
+                                  if not f.name.startswith("search_")  # test_hole_search's
+                                  and f.name != "wedge_force"])  # test_wedge's
 def test_every_robust_parameter_changes_the_commands(name: str) -> None:
     """Each parameter of the robust law acts: changed, the commands of a stiff clearance run
     (or, for the leads, of a part behind 50 ms of command delay) are not the same."""
