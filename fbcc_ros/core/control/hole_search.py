@@ -110,7 +110,14 @@ def within_reach(depth: float, tilt_depth: float, started: bool) -> bool:
 
 
 @numba.njit(cache=True, inline="always")  # type: ignore[misc]
+def hold_rate(fz: float, force: float, bandwidth: float) -> float:
+    """The depth rate [m/s] that brings F_z to ``force``, crossing over at ``bandwidth`` on
+    :data:`AXIAL_STIFFNESS` (negative: a back-off)."""
+    return bandwidth * (force - fz) / AXIAL_STIFFNESS
+
+
+@numba.njit(cache=True, inline="always")  # type: ignore[misc]
 def force_rate(fz: float, search_force: float, bandwidth: float) -> float:
     """The depth rate [m/s] that holds F_z at ``search_force`` while searching: a back-off above
-    it, crossing over at ``bandwidth`` on :data:`AXIAL_STIFFNESS`; no limit below it."""
-    return -bandwidth * (fz - search_force) / AXIAL_STIFFNESS if fz > search_force else math.inf
+    it (:func:`hold_rate`); no limit below it."""
+    return hold_rate(fz, search_force, bandwidth) if fz > search_force else math.inf

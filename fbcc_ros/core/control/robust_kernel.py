@@ -333,7 +333,7 @@ def robust_rows(
         if prm[P_WEDGE_FORCE] > 0.0:
             wdg = m[C_WEDGE : C_WEDGE + wedge.N_STATE]
             free = not searching and m[C_REACHED] == 0.0
-            stuck = free and wedge.wedged(wdg, depth, w[i, 2], free and effort < wedge.QUIET,
+            stuck = free and wedge.wedged(wdg, depth, w[i, 2], effort < wedge.QUIET,
                                           prm[P_WEDGE_FORCE], dt, prm[P_WEDGE_DEPTHS],
                                           prm[P_WEDGE_DEPTHS + 1])  # fmt: skip
             if stuck:
@@ -375,8 +375,7 @@ def robust_rows(
         if searching:
             rate = min(rate, search.force_rate(w[i, 2], prm[P_SEARCH_FORCE], prm[P_WL]))
         if stuck:  # a light push while the probe turns the peg (wedge)
-            rate = prm[P_WL] * (prm[P_SEARCH_FORCE] - w[i, 2]) / search.AXIAL_STIFFNESS
-            rate = min(max(rate, -v), v)
+            rate = min(max(search.hold_rate(w[i, 2], prm[P_SEARCH_FORCE], prm[P_WL]), -v), v)
         if m[C_T] < m[C_HOLD]:
             rate = min(rate, 0.0)
         if w[i, 2] > prm[P_FZ_BACK]:

@@ -135,8 +135,8 @@ class RobustParams:
             within a few tens of microns of the arm's travel while its rows stay quiet, in
             the bore where a two-point contact can wedge (Whitney: up to 4° of tilt, μ up to
             0.5), is wedged. The depth loop then pushes with ``search_force`` only, and the
-            tilt command turns, at ``tilt_rate`` and at most 0.5° from where it
-            wedged, in directions tried in turn; one whose tilt rows push back by more than
+            tilt command turns, at ``tilt_rate`` and at most 0.5° from where it wedged, in
+            directions tried in turn; one whose tilt rows push back by more than
             ``wedge_force`` (in their units, a force at the rim) is left for the next. 0: off.
             A wedge loaded to the back-off (250 N) could not be freed on MuJoCo; 20 N is about
             the friction of the rows' hold (``offset_force``) at μ 0.5.
