@@ -2,7 +2,7 @@
 
     ros2 launch fbcc_ros fbcc_cell.launch.py [profile:=fbcc|lbr|ros2_control] [mock:=true|false]
         [scenario:=FILE] [law:=fbcc|admittance|none] [namespace:=/lbr] [params_file:=FILE]
-        [model:=iiwa14] [record:=false]
+        [model:=iiwa14] [plant:=model|mujoco] [record:=false]
 
 The node set and every node's parameter files come from fbcc_ros.harness.cell_nodes, the
 description fbcc_bringup and the tests build too; this file only turns it into launch actions.
@@ -31,6 +31,8 @@ ARGUMENTS = (
     ("params_file", "", "your cell's parameter file (hole, tool, sensor): needed beside a robot"),
     ("model", "", "a built-in model for the mock and, with profile fbcc, for our nodes "
      "(empty: the scenario's robot.model)"),
+    ("plant", "", "the mock's contact: model | mujoco (empty: the scenario's); on mujoco the "
+     "mock is the cell's clock (/clock) and every node runs with use_sim_time"),
     ("record", "false", "also record the session (fbcc_record) into ./bags"),
 )  # fmt: skip
 
@@ -46,7 +48,7 @@ def _nodes(context: LaunchContext) -> list[Any]:
     setup = CellSetup(profile=arg["profile"], scenario=arg["scenario"],
                       mock=_true("mock", arg["mock"]), law=arg["law"],
                       namespace=arg["namespace"], params_file=arg["params_file"],
-                      model=arg["model"])  # fmt: skip
+                      model=arg["model"], plant=arg["plant"])  # fmt: skip
     nodes = cell_nodes(setup)
     actions: list[Any] = [LogInfo(msg=f"WARNING: {said}") for said in deadband_warnings(nodes)]
     for node in nodes:

@@ -29,11 +29,15 @@ from fbcc_ros.core.kinematics.cell import aligned_hole_at
 from fbcc_ros.core.kinematics.robot import ROBOTS, RobotModel
 from fbcc_ros.core.param_files import file_parameters
 from fbcc_ros.core.sim import scenario as scenario_io
+from fbcc_ros.core.sim.plants.spec import PLANTS
 from fbcc_ros.core.sim.scenario import CONVENTIONS, SOURCES
 
 PROFILES = ("fbcc", "lbr", "ros2_control")
 #: The nodes of a cell, in the order they start (the mock first: it latches the model).
 NODES = ("mock_cell", "dynamic_compensation", "kinematics", "fbcc_controller")
+#: The plants slower than real time in contact (docs/plant.md, Speed): a mock on one is the
+#: cell's clock (mock_cell's ``publish_clock``), so that the loop closes at every period.
+PLANT_CLOCKS = ("mujoco",)
 #: The compensation averages this long of readings into its bias at start (a rehearsal; the
 #: profiles for a real cell take a second).
 TARE_SECONDS = 0.2
@@ -68,6 +72,7 @@ class CellSetup:
         params_file: The user's own parameter file (their hole, tool, sensor, payload).
         model: A built-in model for the mock and, where they use a built-in one, for our nodes
             (not beside a stack's robot_description); empty: the scenario's ``robot.model``.
+        plant: The mock's contact, model or mujoco (empty: the scenario's ``plant.type``).
     """
 
     profile: str = "fbcc"
@@ -77,6 +82,7 @@ class CellSetup:
     namespace: str = ""
     params_file: str = ""
     model: str = ""
+    plant: str = ""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -112,6 +118,9 @@ def cell_nodes(setup: CellSetup) -> list[NodeConfig]:
     """The cell's nodes and their parameters (module doc)."""
     if setup.profile not in PROFILES:
         raise ConfigError("profile", setup.profile, f"one of {list(PROFILES)}")
+    if setup.plant and setup.plant not in PLANTS:
+        raise ConfigError("plant", setup.plant, f"one of {list(PLANTS)} (empty: the scenario's "
+                          "plant.type)")  # fmt: skip
     if setup.model and setup.model not in ROBOTS:
         raise ConfigError("model", setup.model, f"one of {sorted(ROBOTS)} (empty: the "
                           "scenario's robot.model)")  # fmt: skip
@@ -166,7 +175,9 @@ def deadband_warnings(nodes: list[NodeConfig]) -> list[str]:
 def _rehearsal(sc: scenario_io.Scenario, path: str, setup: CellSetup
                ) -> dict[str, dict[str, Any]]:  # fmt: skip
     """The values a hardware-free run sets: the mock's scenario and the stack it plays, the
-    hole under the model's home (a real cell measures it), the rate, the wrench source."""
+    hole under the model's home (a real cell measures it), the rate, the wrench source, and
+    the clock: on a plant slower than real time (:data:`PLANT_CLOCKS`) the mock is the cell's
+    clock and every other node reads it (``use_sim_time``)."""
     from fbcc_ros.pipeline.mock_cell import FIXTURE_COM, FIXTURE_MASS, LBR_NAME
 
     cell = sc.cell
@@ -186,13 +197,16 @@ def _rehearsal(sc: scenario_io.Scenario, path: str, setup: CellSetup
                             **{"payload.mass": FIXTURE_MASS, "payload.com": list(FIXTURE_COM)})
     if cell.source == "estimated":
         compensation["sensor_frame"] = model.flange_frame  # lbr_link_ee
+    plant = setup.plant or sc.plant.type
+    sim_time = {"use_sim_time": True} if plant in PLANT_CLOCKS else {}
     return {
         "mock_cell": {"scenario": path, "robot": model_name, "conventions": cell.conventions,
                       "sensor_qos": cell.qos, "arm_sensing": cell.source != "ft_sensor",
-                      **rate},
-        "dynamic_compensation": compensation,
-        "kinematics": {**robot, **where, **rate},
-        "fbcc_controller": {"scenario": path, **rate},
+                      **rate, **({"plant": setup.plant} if setup.plant else {}),
+                      **({"publish_clock": True} if sim_time else {})},
+        "dynamic_compensation": {**compensation, **sim_time},
+        "kinematics": {**robot, **where, **rate, **sim_time},
+        "fbcc_controller": {"scenario": path, **rate, **sim_time},
     }
 
 

@@ -39,11 +39,11 @@ from fbcc_ros.core.param_files import file_parameters
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.plants.spec import PLANTS
 from fbcc_ros.core.sim.simulation import score
-from fbcc_ros.harness.cell_nodes import CellSetup, deadband_warnings, profile_of
+from fbcc_ros.harness.cell_nodes import PLANT_CLOCKS, CellSetup, deadband_warnings, profile_of
 from fbcc_ros.harness.cell_nodes import cell_nodes as harness_cell_nodes
 from fbcc_ros.harness.cell_run import CellRun, NodeSpec
 from fbcc_ros.harness.fault_drill import DRILLS, describe, run_drill
-from fbcc_ros.harness.insertion_time import spin_insertion
+from fbcc_ros.harness.insertion_time import progress_line, spin_insertion
 from fbcc_ros.nodes.fbcc_record import CELL_TOPICS, default_folder
 from fbcc_ros.ros import topics
 
@@ -123,11 +123,11 @@ def cell_nodes(
 
     factories = {"mock_cell": MockCellNode, "dynamic_compensation": DynamicCompensationNode,
                  "kinematics": KinematicsNode, "fbcc_controller": FbccControllerNode}
-    own: dict[str, dict[str, Any]] = {"mock_cell": {"draw_geometry": draw_geometry, "seed": seed,
-                                                    **({"plant": plant} if plant else {})},
+    own: dict[str, dict[str, Any]] = {"mock_cell": {"draw_geometry": draw_geometry, "seed": seed},
            "fbcc_controller": {"law": law, **({} if processes else
                                               {"timeout": IN_PROCESS_STALL + 1 / sc.rate_hz})}}
-    setup = CellSetup(profile_of(sc.cell.conventions), path, namespace=sc.cell.namespace)
+    setup = CellSetup(profile_of(sc.cell.conventions), path, namespace=sc.cell.namespace,
+                      plant=plant)  # fmt: skip
     nodes = harness_cell_nodes(setup)
     for said in deadband_warnings(nodes):
         print(f"WARNING: {said}", flush=True)
@@ -264,6 +264,7 @@ def run_cell(
     path = str(scenario_io.find(scenario_path))
     sc = scenario_io.load(path)
     specs = cell_nodes(path, sc, law, draw_geometry, seed, processes, plant)
+    plant_clock = (plant or sc.plant.type) in PLANT_CLOCKS  # the mock is the cell's clock
     recorded = recorded_topics(sc.cell.conventions, sc.cell.source != "ft_sensor")
     if bag is not None:
         specs.append(recorder(bag, recorded, sc.cell.namespace))
@@ -277,15 +278,11 @@ def run_cell(
         obs.reset_counts()
         cpu0, t0 = run.cpu(), time.monotonic()
 
-        def progress(elapsed: float) -> None:
-            depth = obs.truth[-1][3] * 1e3 if obs.truth else float("nan")
-            print(f"  t = {elapsed:4.1f} s  phase {obs.phase:10s} depth {depth:.3f} mm",
-                  flush=True)  # fmt: skip
-
+        progress = progress_line(obs, plant_clock)
         if fault:
             watch = run_drill(run, fault, sc, bag, progress)
         else:
-            spin_insertion(run, sc.duration, sc.rate_hz, progress)
+            spin_insertion(run, sc.duration, sc.rate_hz, progress, plant_clock)
         elapsed = time.monotonic() - t0
         cpu = {k: (v - cpu0[k]) / elapsed for k, v in run.cpu().items()}
         truth = obs.truth_since(first)
@@ -293,6 +290,8 @@ def run_cell(
     if len(truth) < 2:
         raise FbccError("the mock cell's ground truth did not arrive (mock_cell/truth)")
     t = truth[:, 0]
+    if plant_clock:  # the cycles of the plant's time, not of the wall's
+        elapsed = t[-1] - t[0] + 1 / sc.rate_hz
     outcome = score(sc, t - t[0], truth[:, 1:6], truth[:, 6:11], phase == "force_limit")
     summary = outcome.summary(0)
     summary.update(

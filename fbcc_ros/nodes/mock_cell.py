@@ -13,6 +13,14 @@ For scoring, it also publishes the true features and response of each tick on
 listens. The plant is
 :class:`fbcc_ros.core.sim.mock_cell.MockCell`. One node holds both roles because the sensor
 reads the arm's state of the same step.
+
+With ``publish_clock`` the mock is the cell's clock, as a simulator is a ROS graph's: it steps
+the plant one period a tick, as fast as it can up to real time, and publishes the plant's time
+on ``/clock`` (from one period on); every other node of the cell runs with ``use_sim_time``.
+While the cell commands the arm, a tick waits for the answer to the last one (a joint
+command), as a simulator's controllers run in its step, at most :data:`ANSWER_WAIT` of the
+wall's clock (then it steps, and counts it). A plant slower than real time (MuJoCo in contact)
+then closes the loop at every period, where on the wall's clock it would skip periods.
 """
 
 from __future__ import annotations
@@ -21,18 +29,26 @@ import time
 from typing import Any
 
 import numpy as np
+from builtin_interfaces.msg import Time
 from geometry_msgs.msg import WrenchStamped
 from rclpy.node import Node
+from rclpy.publisher import Publisher
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 
-from fbcc_ros.core.errors import FbccError
+from fbcc_ros.core.errors import ConfigError, FbccError
 from fbcc_ros.core.sim.wrist_sensor import WRIST_FRAME
 from fbcc_ros.pipeline.kinematics import needs_description
 from fbcc_ros.pipeline.mock_cell import TABLE, MockStage
 from fbcc_ros.ros import topics
 from fbcc_ros.ros.cdr import encode_array
-from fbcc_ros.ros.convert import joints_to_cdr, positions_from_cdr, wrench_to_cdr
+from fbcc_ros.ros.convert import (
+    joints_to_cdr,
+    positions_from_cdr,
+    seconds_to_stamp,
+    wrench_to_cdr,
+)
 from fbcc_ros.ros.diagnostics import counter_report, publish_diagnostics
 from fbcc_ros.ros.params import declare, run
 from fbcc_ros.ros.robot_description import DESCRIPTION_QOS, description_for
@@ -46,8 +62,10 @@ class MockCellNode(Node):
         self.cell, self.dt, self.frame = self.stage.cell, self.stage.dt, self.stage.frame
         self.names = self.cell.robot.joint_names
         self.counts = {"ticks": 0, "ticks_caught_up": 0, "ticks_skipped": 0,
-                       "commands_refused": 0}  # fmt: skip
+                       "ticks_unanswered": 0, "commands_refused": 0}  # fmt: skip
         self._start: float | None = None
+        # the plant's clock: the cell answered the last tick; it is awaited until (monotonic)
+        self._answered, self._await_until = False, 0.0
         self.pub_joints = self.create_publisher(JointState, topics.JOINT_STATES, 10)
         self.pub_raw = self.create_publisher(WrenchStamped, topics.RAW_WRENCH,
                                              topics.input_qos(values["sensor_qos"]))
@@ -71,8 +89,14 @@ class MockCellNode(Node):
             self.pub_description = self.create_publisher(
                 String, topics.ROBOT_DESCRIPTION, DESCRIPTION_QOS)
             self.pub_description.publish(String(data=self.cell.robot.urdf_text))
+        self.pub_clock = None
+        if values["publish_clock"]:
+            if self.get_parameter("use_sim_time").value:
+                raise ConfigError("use_sim_time", True, "false on the mock when it publishes "
+                                  "the clock (publish_clock): it is the clock")  # fmt: skip
+            self.pub_clock = self.create_publisher(Clock, topics.CLOCK, 10)
         self.create_timer(self.dt, self.on_tick)
-        bad = ("ticks_skipped", "commands_refused")
+        bad = ("ticks_skipped", "ticks_unanswered", "commands_refused")
         publish_diagnostics(self, counter_report(self._counts, bad, "mock cell"))
 
     def _counts(self) -> dict[str, float]:
@@ -89,17 +113,24 @@ class MockCellNode(Node):
         self.cell.preload()
 
     def on_command(self, data: bytes) -> None:
+        self._answered = True
         try:
             self.cell.command(positions_from_cdr(data))
         except FbccError as exc:
             self.counts["commands_refused"] += 1
             self.get_logger().error(f"joint command refused: {exc}", throttle_duration_sec=1.0)
+        if self.pub_clock is not None and self._start is not None and (
+                self.counts["ticks"] + 1) * self.dt <= time.monotonic() - self._start:
+            self._clock_tick(self.pub_clock)  # answered, the plant behind real time: step now
 
     def on_tick(self) -> None:
         """Steps the plant once per period elapsed since the first tick, as hardware would
         tick: a timer callback that comes late (a busy executor) is caught up, not lost. More
         than ``MAX_CATCH_UP`` periods behind, the older ones are skipped (the plant pauses for
         them) and counted."""
+        if self.pub_clock is not None:
+            self._clock_tick(self.pub_clock)
+            return
         clock = time.monotonic()
         if self._start is None:
             self._start = clock - self.dt
@@ -113,6 +144,25 @@ class MockCellNode(Node):
         for late in range(due - 1, -1, -1):  # each sample stamped with its own period
             self._tick(now - late * self.dt)
             self.counts["ticks"] += 1
+
+    def _clock_tick(self, clock: Publisher) -> None:
+        """One period of the plant's time, none skipped (module doc): while the cell commands
+        the arm (it answered the tick before), once it answered the last one or waited
+        ``ANSWER_WAIT``."""
+        wall = time.monotonic()
+        if self._start is None:
+            self._start = wall - self.dt
+        if self._await_until and not self._answered:
+            if wall < self._await_until:
+                return
+            self.counts["ticks_unanswered"] += 1
+        self._await_until = wall + ANSWER_WAIT if self._answered else 0.0
+        self._answered = False
+        now = (self.counts["ticks"] + 1) * self.dt
+        sec, nanosec = seconds_to_stamp(now)
+        clock.publish(Clock(clock=Time(sec=sec, nanosec=nanosec)))
+        self._tick(now)
+        self.counts["ticks"] += 1
 
     def _tick(self, now: float) -> None:
         sample = self.cell.step(self.dt)
@@ -139,6 +189,9 @@ class MockCellNode(Node):
             self.pub_truth.publish(encode_array(row, TRUTH_LAYOUT))
 
 
+#: How long a tick on the plant's clock waits for the cell's answer to the last one (the
+#: wall's [s]): the in-process cell's stall bound (bringup's IN_PROCESS_STALL).
+ANSWER_WAIT = 0.05
 #: Periods a late tick catches up; beyond, the plant skips (20 ms: a VM stall, a GC pause).
 MAX_CATCH_UP = 20
 #: The truth's layout: one dimension labelled with the fields (topics.TRUTH_FIELDS).

@@ -57,6 +57,10 @@ TABLE = (
           10000.0),
     Param("plant", "", "the contact between the hand and the hole: model (eq. 5-13) or mujoco "
           "(docs/plant.md); empty: the scenario's plant.type", choices=("", *PLANTS)),
+    Param("publish_clock", False, "be the cell's clock: step the plant one period a tick, as "
+          "fast as it can up to real time, stamp with the plant's time and publish it on "
+          "/clock (the other nodes then run with use_sim_time); for a plant slower than real "
+          "time (mujoco), which would otherwise skip periods"),
     Param("draw_geometry", False, "draw the true radii from Table II's tolerances"),
     Param("seed", -1, "seed of the noise and of the drawn geometry; -1: the scenario's seed", "",
           -1, 2**31 - 1),

@@ -10,7 +10,7 @@ checks what rclpy checks on declare, and refuses a name the stage does not have.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 from fbcc_ros.core.errors import ConfigError, closest
@@ -74,6 +74,16 @@ def _kind(default: Any) -> str:
     return names.get(type(default), f"a {type(default).__name__}")
 
 
+#: Parameters rclpy itself gives every node (and its QoS overrides, ``qos_overrides.*``): no
+#: stage's, whichever file or launch sets them (``use_sim_time`` on a cell on its plant's clock).
+ROS_OWN = ("use_sim_time", "start_type_description_service")
+
+
+def stage_names(names: Iterable[str]) -> list[str]:
+    """``names`` less rclpy's own (:data:`ROS_OWN`)."""
+    return [n for n in names if n not in ROS_OWN and not n.startswith("qos_overrides.")]
+
+
 def unknown_names(stage: str, table: Sequence[Param], names: Sequence[str]) -> None:
     """Raises :class:`ConfigError` for the first of ``names`` the table does not declare, with
     the closest declared name (a misspelt key would otherwise leave its default in force)."""
@@ -87,7 +97,7 @@ def unknown_names(stage: str, table: Sequence[Param], names: Sequence[str]) -> N
 def resolve(stage: str, table: Sequence[Param], given: dict[str, Any]) -> dict[str, Any]:
     """The table's defaults overridden by ``given``, checked as the node checks them on
     declare: a name the stage does not have, a number out of range, a string not a choice."""
-    unknown_names(stage, table, sorted(given))
+    unknown_names(stage, table, stage_names(sorted(given)))
     values = {p.name: given.get(p.name, p.default) for p in table}
     for p in table:
         p.check(values[p.name], stage)

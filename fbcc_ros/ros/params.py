@@ -19,7 +19,7 @@ from rclpy.node import Node
 
 from fbcc_ros.core.errors import FbccError, one_line
 from fbcc_ros.core.files import read_yaml
-from fbcc_ros.pipeline.parameters import Param, unknown_names
+from fbcc_ros.pipeline.parameters import Param, stage_names, unknown_names
 from fbcc_ros.ros.executor import make_executor
 from fbcc_ros.ros.process import StopSignalError, catch_signals, short_lease
 
@@ -28,8 +28,6 @@ from fbcc_ros.ros.process import StopSignalError, catch_signals, short_lease
 CLOCK_SOURCE = "use_sim_time"
 CLOCK_FIXED = (f"{CLOCK_SOURCE} is set at start-up only (--ros-args -p {CLOCK_SOURCE}:=true): "
                "switched while the cell runs, the stamps of its messages would jump")
-#: Parameters rclpy itself gives every node (and its QoS overrides, ``qos_overrides.*``).
-ROS_OWN = ("use_sim_time", "start_type_description_service")
 
 
 def descriptor(p: Param) -> ParameterDescriptor:
@@ -66,9 +64,7 @@ def declare(
     raises an FbccError the change is refused with the reason. ``use_sim_time`` is refused
     at runtime (:data:`CLOCK_FIXED`).
     """
-    given = [name for name in node._parameter_overrides
-             if name not in ROS_OWN and not name.startswith("qos_overrides.")]  # fmt: skip
-    unknown_names(node.get_name(), table, given)
+    unknown_names(node.get_name(), table, stage_names(node._parameter_overrides))
     values: dict[str, Any] = {}
     for p in table:
         value = node.declare_parameter(p.name, p.default, descriptor(p)).value

@@ -56,6 +56,9 @@ START = "fbcc/start"
 ABORT = "fbcc/abort"
 #: Acknowledges a fault, a force limit or an abort (std_srvs/Trigger): back to idle.
 RESET = "fbcc/reset"
+#: The simulated time of a mock that is the cell's clock (mock_cell's publish_clock), absolute
+#: as ROS's own time source reads it.
+CLOCK = "/clock"
 #: The mock cell's ground truth, one Float64MultiArray per tick (published only when heard):
 #: what the real cell cannot measure, for scoring a hardware-free run.
 TRUTH = "mock_cell/truth"

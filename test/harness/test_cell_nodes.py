@@ -60,6 +60,20 @@ def test_each_rehearsal_resolves_for_each_node(scenario: str, profile: str) -> N
     assert hole[:2] == hole[2:]
 
 
+@pytest.mark.parametrize("plant", ["", "model", "mujoco"])
+def test_a_mock_on_a_plant_slower_than_real_time_is_the_cells_clock(plant: str) -> None:
+    """On MuJoCo the mock publishes /clock and every other node reads it; on the model (real
+    time and faster) the cell keeps the wall's clock, as a real cell does."""
+    nodes = cell_nodes(CellSetup(plant=plant))
+    values = {n.name: resolve(n.name, TABLES[n.name], n.merged()) for n in nodes}
+    sim = plant == "mujoco"
+    assert values["mock_cell"]["publish_clock"] is sim
+    assert values["mock_cell"]["plant"] == plant
+    assert "use_sim_time" not in nodes[0].merged()  # the mock is the clock
+    for node in nodes[1:]:
+        assert node.merged().get("use_sim_time", False) is sim, node.name
+
+
 def test_the_lbr_profile_reads_the_stacks_joint_torques() -> None:
     nodes = {n.name: n.merged() for n in cell_nodes(CellSetup("lbr", LBR))}
     comp = nodes["dynamic_compensation"]
@@ -81,6 +95,7 @@ def test_the_rehearsals_measured_torque_source_is_what_the_lbr_profile_ships() -
     (CellSetup("lbr"), r"profile='lbr'.*'fbcc' with the scenario's robot.conventions 'fbcc'"),
     (CellSetup("fbcc", LBR), r"profile='fbcc'.*'lbr' with the scenario's robot.conventions"),
     (CellSetup("lbr", mock=False), r"params_file=''.*your cell's parameter file"),
+    (CellSetup(plant="gazebo"), r"plant='gazebo'.*one of \['model', 'mujoco'\]"),
 ])  # fmt: skip
 def test_a_set_up_that_cannot_work_is_refused(setup: CellSetup, match: str) -> None:
     with pytest.raises(ConfigError, match=match):

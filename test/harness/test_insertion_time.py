@@ -1,6 +1,7 @@
 """How long the cell gives an insertion (fbcc_ros.harness.insertion_time): the duration on a
 loop that delivers its cycles; on a starved one, on until it has delivered the duration's
-cycles (at most MAX_STRETCH durations), and SETTLE after the insertion ends."""
+cycles (at most MAX_STRETCH durations), and SETTLE after the insertion ends; on the plant's
+clock, the duration of the plant's time."""
 
 from __future__ import annotations
 
@@ -74,3 +75,36 @@ def test_a_starved_insertion_that_ends_settles_then_stops() -> None:
 def test_a_loop_that_delivers_nothing_is_given_at_most_max_stretch() -> None:
     spun = _spun(FakeRun(0.0, None))
     assert MAX_STRETCH * DURATION <= spun < (MAX_STRETCH + 0.5) * DURATION
+
+
+class PlantClockRun(FakeRun):
+    """A cell whose mock is its clock, its plant running at ``factor`` of real time: the truth
+    is stamped with the plant's time (rows from before the start are not counted)."""
+
+    def __init__(self, factor: float) -> None:
+        super().__init__(1.0, None)
+        self.factor, self.truth = factor, [(100.0,), (100.001,)]
+
+    def spin_for(self, seconds: float, every_second: Callable[[float], None],
+                 longer: Callable[[float], bool]) -> None:  # fmt: skip
+        start = time.monotonic()
+        while (elapsed := time.monotonic() - start) < seconds or longer(elapsed):
+            time.sleep(0.002)
+            self.truth.append((200.0 + self.factor * (time.monotonic() - self.start),))
+
+
+@pytest.mark.parametrize("factor", [0.2, 2.0])
+def test_on_the_plants_clock_the_duration_is_the_plants_time(factor: float, capsys) -> None:
+    run = PlantClockRun(factor)
+    spin_insertion(run, DURATION, RATE, lambda _: None, plant_clock=True)
+    spun = time.monotonic() - run.start
+    assert DURATION / factor <= spun < DURATION / factor + 0.1  # not the wall's duration
+    assert run.truth[-1][0] - run.truth[2][0] >= DURATION
+    assert "the mock is its clock" in capsys.readouterr().out
+
+
+def test_a_plant_clock_that_stands_still_is_given_at_most_max_plant_wait(monkeypatch) -> None:
+    monkeypatch.setattr(insertion_time, "MAX_PLANT_WAIT", 3.0)  # the shipped one: longer
+    run = PlantClockRun(0.0)
+    spin_insertion(run, DURATION, RATE, lambda _: None, plant_clock=True)
+    assert 3.0 * DURATION <= time.monotonic() - run.start < 3.5 * DURATION

@@ -260,6 +260,9 @@ TRANSPORT = {
     "dynamic_compensation.wrench_topic":
         "test/nodes/test_wrench_qos.py::test_the_wrench_is_read_where_wrench_topic_says",
     "mock_cell.publish_description": _DESCRIBED,
+    "mock_cell.publish_clock": ("test/nodes/test_mujoco_cell.py::"
+                                "test_the_cell_on_mujoco_records_a_bag_rosbags_reads_and_the_"
+                                "report_draws"),
     "kinematics.command_type":
         f"{_COMMANDED}test_a_one_period_trajectory_for_a_joint_trajectory_controller",
     "kinematics.command_topic":
