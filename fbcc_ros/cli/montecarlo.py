@@ -274,7 +274,7 @@ def main(argv: list[str] | None = None) -> int:
     elapsed = time.perf_counter() - start
     summary: dict[str, Any] = {}
     missed: dict[str, list[list[str]]] = {}
-    deadline = time_goal(sc.insertion)
+    deadline = time_goal(sc.insertion, sc.rate_hz)
     for law, o in results.items():
         summary[law] = summarise(o)
         missed[law] = missed_goals(o, deadline)

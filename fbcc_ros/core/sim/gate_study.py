@@ -133,7 +133,7 @@ def gate_study(sc: Scenario, unc: Uncertainty, stiffness: float, trials: int, se
                 if arm in sources else None)  # fmt: skip
         outcome, _ = simulate(sc, "fbcc", initial=dev, geometries=parts, seed=seed,
                               record=False, wrap=wrap)  # fmt: skip
-        out[arm] = summary(outcome, time_goal(sc.insertion))
+        out[arm] = summary(outcome, time_goal(sc.insertion, sc.rate_hz))
         if gates:
             g = gates[0]
             periods = sc.steps * trials

@@ -14,10 +14,14 @@ percentile over the study's trials (a median hid stiff tight parts peaking at 42
 read 11.8 N), of Fz on clearance parts and of Fz above the part's push-in force on interference
 parts; and of the whole force |F| on clearance parts, where a grip's lateral push counts too.
 
-The issue states the time goal for its study, 3 s at 5 mm/s over 10 mm: the travel (2 s) and
-one second for the entry and the alignment. :func:`time_goal` keeps that second for any other
-insertion (a 15 mm hole at 5 mm/s: 4 s), so a study of another part is judged on its own
-travel rather than on the 10 mm one.
+The issue states the time goal for its study, 3 s at 5 mm/s over 10 mm at 1 kHz: the travel
+(2 s) and one second for the entry and the alignment. :func:`time_goal` keeps that second for
+any other insertion (a 15 mm hole at 5 mm/s: 4 s), so a study of another part is judged on its
+own travel rather than on the 10 mm one. A slower loop is given more: the approach into a
+stiff contact is paced by the period (one ``entry_step`` a period: 0.6 mm take 0.12 s at 1 kHz
+and 1.2 s at 100 Hz), and the issue gives 4 s at 100 Hz. Between, and below 100 Hz, the extra
+time is in proportion to the period beyond 1 ms (250 Hz: 3.33 s; 50 Hz: 5.1 s); none above
+1 kHz.
 """
 
 from __future__ import annotations
@@ -35,16 +39,23 @@ from fbcc_ros.core.sim.simulation import Outcome
 GOAL_SUCCESS = 0.999
 GOAL_RESIDUAL = 0.5  # [N]
 GOAL_TIME_ALLOWANCE = 1.0  # [s] beyond the travel depth / speed (3 s at 5 mm/s over 10 mm)
+#: The rate whose time goal is the issue's (1 kHz), and the slow one it gives more: (rate [Hz],
+#: the seconds more) -- 4 s instead of 3 s at 100 Hz.
+GOAL_TIME_RATE = 1000.0
+GOAL_SLOW_RATE = (100.0, 1.0)
 GOAL_PEAK_FZ = 30.0  # [N] clearance: p99 of the peak; interference: p99 of the peak above push-in
 GOAL_PEAK_FORCE = 50.0  # [N] clearance: p99 of the peak |F|, lateral included (MuJoCo's goal)
 GOAL_PERCENTILE = 99.0  # the peak force's goals judge this percentile of the trials
 GOAL_OVERSHOOT = DEFAULT_TOLERANCE["tilt"]  # [rad] a tilt past zero beyond the success tolerance
 
 
-def time_goal(insertion: Insertion) -> float:
-    """The longest an assembly may take from the start [s]: the travel at the insertion's speed
-    and ``GOAL_TIME_ALLOWANCE`` (the issue's 3 s for 10 mm at 5 mm/s)."""
-    return insertion.depth / insertion.speed + GOAL_TIME_ALLOWANCE
+def time_goal(insertion: Insertion, rate_hz: float = GOAL_TIME_RATE) -> float:
+    """The longest an assembly may take from the start [s] at a loop of ``rate_hz``: the travel
+    at the insertion's speed and ``GOAL_TIME_ALLOWANCE`` (the issue's 3 s for 10 mm at 5 mm/s),
+    and more at a rate under ``GOAL_TIME_RATE``, in proportion to the period (module doc)."""
+    slow_rate, more = GOAL_SLOW_RATE
+    periods = (1.0 / rate_hz - 1.0 / GOAL_TIME_RATE) / (1.0 / slow_rate - 1.0 / GOAL_TIME_RATE)
+    return insertion.depth / insertion.speed + GOAL_TIME_ALLOWANCE + more * max(periods, 0.0)
 
 
 def missed_goals(outcome: Outcome, deadline: float) -> list[list[str]]:
