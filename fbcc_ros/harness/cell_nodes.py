@@ -150,6 +150,12 @@ def cell_nodes(setup: CellSetup) -> list[NodeConfig]:
     return nodes
 
 
+def on_plant_clock(sc: scenario_io.Scenario, plant: str = "") -> bool:
+    """Whether a mock of ``sc`` on ``plant`` (empty: the scenario's) is the cell's clock
+    (:data:`PLANT_CLOCKS`)."""
+    return (plant or sc.plant.type) in PLANT_CLOCKS
+
+
 def deadband_warnings(nodes: list[NodeConfig]) -> list[str]:
     """What the dead bands in the wrench's path hide, before a run
     (:func:`~fbcc_ros.pipeline.lateral_watch.deadband_warning`): ours (``deadband``), and the
@@ -197,8 +203,7 @@ def _rehearsal(sc: scenario_io.Scenario, path: str, setup: CellSetup
                             **{"payload.mass": FIXTURE_MASS, "payload.com": list(FIXTURE_COM)})
     if cell.source == "estimated":
         compensation["sensor_frame"] = model.flange_frame  # lbr_link_ee
-    plant = setup.plant or sc.plant.type
-    sim_time = {"use_sim_time": True} if plant in PLANT_CLOCKS else {}
+    sim_time = {"use_sim_time": True} if on_plant_clock(sc, setup.plant) else {}
     return {
         "mock_cell": {"scenario": path, "robot": model_name, "conventions": cell.conventions,
                       "sensor_qos": cell.qos, "arm_sensing": cell.source != "ft_sensor",
@@ -211,4 +216,4 @@ def _rehearsal(sc: scenario_io.Scenario, path: str, setup: CellSetup
 
 
 __all__ = ["CONVENTIONS", "PROFILES", "SOURCES", "CellSetup", "NodeConfig", "cell_nodes",
-           "deadband_warnings"]
+           "deadband_warnings", "on_plant_clock"]

@@ -78,8 +78,7 @@ def progress_line(observer: Any, plant_clock: bool = False) -> Callable[[float],
 
     def progress(elapsed: float) -> None:
         depth = truth[-1][3] * 1e3 if truth else float("nan")
-        own = (f" (the plant's {truth[-1][0] - truth[first][0]:.2f} s)"
-               if plant_clock and len(truth) > first else "")  # fmt: skip
+        own = f" (the plant's {_span(truth, first):.2f} s)" if plant_clock else ""
         print(f"  t = {elapsed:4.1f} s{own}  phase {observer.phase:10s} depth {depth:.3f} mm",
               flush=True)  # fmt: skip
 
@@ -91,7 +90,7 @@ def _spin_plant_time(run: Any, duration: float, every_second: Callable[[float], 
     truth, first = run.observer.truth, len(run.observer.truth)
 
     def plant_time() -> float:
-        return truth[-1][0] - truth[first][0] if len(truth) > first else 0.0
+        return _span(truth, first)
 
     start = time.monotonic()
     run.spin_for(0.0, every_second,
@@ -99,3 +98,8 @@ def _spin_plant_time(run: Any, duration: float, every_second: Callable[[float], 
     wall = time.monotonic() - start
     print(f"  the cell ran {plant_time():.2f} s of the plant's time in {wall:.1f} s "
           f"({plant_time() / wall:.2f}x real time; the mock is its clock)", flush=True)
+
+
+def _span(truth: list[tuple[float, ...]], first: int) -> float:
+    """The plant's time [s] the truth's rows span from row ``first`` on (0 before two)."""
+    return truth[-1][0] - truth[first][0] if len(truth) > first else 0.0

@@ -39,7 +39,7 @@ from fbcc_ros.core.param_files import file_parameters
 from fbcc_ros.core.sim import scenario as scenario_io
 from fbcc_ros.core.sim.plants.spec import PLANTS
 from fbcc_ros.core.sim.simulation import score
-from fbcc_ros.harness.cell_nodes import PLANT_CLOCKS, CellSetup, deadband_warnings, profile_of
+from fbcc_ros.harness.cell_nodes import CellSetup, deadband_warnings, on_plant_clock, profile_of
 from fbcc_ros.harness.cell_nodes import cell_nodes as harness_cell_nodes
 from fbcc_ros.harness.cell_run import CellRun, NodeSpec
 from fbcc_ros.harness.fault_drill import DRILLS, describe, run_drill
@@ -264,7 +264,7 @@ def run_cell(
     path = str(scenario_io.find(scenario_path))
     sc = scenario_io.load(path)
     specs = cell_nodes(path, sc, law, draw_geometry, seed, processes, plant)
-    plant_clock = (plant or sc.plant.type) in PLANT_CLOCKS  # the mock is the cell's clock
+    plant_clock = on_plant_clock(sc, plant)  # the mock is the cell's clock
     recorded = recorded_topics(sc.cell.conventions, sc.cell.source != "ft_sensor")
     if bag is not None:
         specs.append(recorder(bag, recorded, sc.cell.namespace))
