@@ -129,6 +129,7 @@ from fbcc_ros.core.contact.model import PegHole, as_rows
 from fbcc_ros.core.control import guard as guard_mod
 from fbcc_ros.core.control import identification as ident
 from fbcc_ros.core.control import robust_kernel as rk
+from fbcc_ros.core.control import robust_vector as rv
 from fbcc_ros.core.control.axis_insertion import AxisInsertion
 from fbcc_ros.core.control.phase import Phase
 from fbcc_ros.core.control.robust_params import RobustParams
@@ -292,5 +293,5 @@ class RobustFbcc:
     def _parameters(self, dt: float) -> FloatArray:
         prm = self._prm.get(dt)
         if prm is None:
-            prm = self._prm[dt] = rk.parameters(self.params, self.insertion, self.nominal, dt)
+            prm = self._prm[dt] = rv.parameters(self.params, self.insertion, self.nominal, dt)
         return prm

@@ -26,7 +26,7 @@ from fbcc_ros.core.control.loop_design import (
 )
 from fbcc_ros.core.control.phase import Phase
 from fbcc_ros.core.control.robust import RobustFbcc
-from fbcc_ros.core.control.robust_params import RobustParams
+from fbcc_ros.core.control.robust_params import DITHER_FRACTIONS, RobustParams
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim.scenario import validate
 from fbcc_ros.core.sim.simulation import simulate
@@ -531,7 +531,7 @@ def test_the_guard_and_the_depth_loop_see_the_rows_without_the_laws_own_dither()
     10 %)."""
     law = RobustFbcc(_pair("clearance", 1e9), RobustParams())
     prm = law._parameters(DT)
-    fractions = robust_kernel.DITHER_FRACTIONS
+    fractions = DITHER_FRACTIONS
     t = np.arange(3000) * DT
     for j, partner in enumerate((3, 2, 1, 0)):
         for hz, passes in ((fractions[j] / DT, False), (fractions[partner] / DT, False),
