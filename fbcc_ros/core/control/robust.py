@@ -80,7 +80,8 @@ lateral loops into 100-N oscillations there), and a row moves the peg only beyon
 ``settle_force``, the residual lateral force the law accepts. Integrating noise-level rows at
 the floor's gain drifts the peg by up to the resolutions, more than a sub-µm clearance: a
 46 GPa part with 0.14 µm of clearance was tilted into its hole's wall at 200 N, 1 s after it
-had arrived.
+had arrived. The tilt loops then integrate at ``settle_gain`` of ω_c (their stiffness still
+rises as l³); the offset loops keep ω_c (theirs rises only as l).
 
 **Depth.** The insertion advances at ``insertion.speed`` while the lateral loops are settled and
 slows, holds or backs off while they are not: with the lateral effort

@@ -233,14 +233,15 @@ def robust_rows(
             v_d = (jac[3] * excess[r_d] - jac[1] * excess[r_t]) / det
             v_t = (jac[0] * excess[r_t] - jac[2] * excess[r_d]) / det
             # at the depth the fit is no longer excited while the tilt's stiffness still
-            # rises (as l³): the loops settle at a fraction of ω_c, inside the gain margin
-            wc = prm[P_WC] if m[C_REACHED] == 0.0 else prm[P_SETTLE_GAIN] * prm[P_WC]
+            # rises (as l³): the tilt loops settle at a fraction of ω_c, inside the gain margin
+            wc = prm[P_WC]
+            wc_t = wc if m[C_REACHED] == 0.0 else prm[P_SETTLE_GAIN] * wc
             if not searching:  # on the face its friction is not an offset
                 m[C_INT + ident.ROWS[r_d]] += wc * v_d * dt
             if depth >= prm[P_TILT_DEPTH]:  # at the entry a tilt row cannot tell tilt
                 # no faster than tilt_rate: a faster turn passes zero before it is seen
                 turn = prm[P_TILT_RATE] * dt
-                m[C_INT + ident.ROWS[r_t]] += min(max(wc * v_t * dt, -turn), turn)
+                m[C_INT + ident.ROWS[r_t]] += min(max(wc_t * v_t * dt, -turn), turn)
         # a wedged clearance fit turns its tilt to free itself (wedge)
         stuck = False
         if prm[P_WEDGE_FORCE] > 0.0:

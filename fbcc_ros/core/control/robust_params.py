@@ -86,10 +86,14 @@ class RobustParams:
             the law accepts. A still peg cannot wedge itself; one whose loops integrate noise
             at the floor's gain drifts by up to the resolutions below, more than a sub-µm
             clearance, and a stiff part then rang into 200 N at the depth.
-        settle_gain: The lateral loops' crossover once the depth is reached, as a fraction of
+        settle_gain: The tilt loops' crossover once the depth is reached, as a fraction of
             the one they ran with. There nothing excites the fit while the tilt's stiffness
             still rises (eq. 8: as l³ over the last millimetre); at the full crossover the tilt
-            rows of stiff interference parts rang at the depth and the depth backed off.
+            rows of stiff interference parts rang at the depth and the depth backed off. The
+            offset loops keep their crossover: their stiffness rises only as l, and where a
+            compliant grip makes the plane softer than the estimate's floor their loop is
+            already slower than designed (a quarter of it left such pegs pressed against the
+            wall at the end, docs/integration.md).
         coupling_limit: How much of a plane's identified coupling the law inverts:
             |J01 J10| <= coupling_limit J00 J11 (0: the rows alone, as FBCC's A(l)).
         plane_gate: A plane whose two rows are both inside their dead band holds (nothing to

@@ -639,12 +639,14 @@ def test_the_guard_threshold_is_never_under_its_noise_peaks() -> None:
         assert at_40 == offsets_at_40, (noise, g, filtered)
 
 
-def test_at_the_depth_the_loops_settle_at_settle_gain() -> None:
+def test_at_the_depth_the_tilt_loops_settle_at_settle_gain() -> None:
     """Once the depth is reached nothing excites the fit while a tilt's stiffness still rises
-    (as l³): the loops integrate at settle_gain of their crossover (trial 3400 of seed 13, a
-    43 GPa interference part, rang at the depth and backed off by 0.4 mm at the full one).
-    A row beyond settle_force moves the peg at settle_gain of the full gain's rate; before the
-    depth the commands are the same."""
+    (as l³): the tilt loops integrate at settle_gain of their crossover (trial 3400 of seed 13, a
+    43 GPa interference part, rang at the depth and backed off by 0.4 mm at the full one). The
+    offset rows, whose stiffness rises only as l, keep theirs. A load beyond settle_force on
+    both rows of a plane: the tilt command turns at settle_gain of the full gain's rate, the
+    offset command moves at the same rate whatever settle_gain; before the depth the commands
+    are the same."""
     runs = []
     for gain in (RobustParams().settle_gain, 1.0):
         law = RobustFbcc(_pair("clearance", 1e9), RobustParams(tilt_depth=0.0, settle_gain=gain))
@@ -653,16 +655,18 @@ def test_at_the_depth_the_loops_settle_at_settle_gain() -> None:
         law.reset(x)
         commands = []
         for _ in range(1500):
-            x = law.step(np.array([2.0 * RobustParams().settle_force, 0.0, 5.0, 0.0, 0.0]), x,
+            x = law.step(np.array([2.0 * RobustParams().settle_force, 0.0, 5.0, 0.0, 0.01]), x,
                          DT)  # fmt: skip
             commands.append(x.copy())
         runs.append(np.array(commands))
     at_depth = int(np.argmax(runs[0][:, 2] >= 0.01))
     assert 0 < at_depth < 500
     np.testing.assert_array_equal(runs[0][:at_depth], runs[1][:at_depth])
-    rates = [np.diff(c[at_depth + 500 :, 0]).mean() for c in runs]  # after the dither's fade
-    assert rates[1] != 0.0
-    assert rates[0] / rates[1] == pytest.approx(RobustParams().settle_gain, rel=1e-3), rates
+    # after the dither's fade: (dx, theta_y) rates
+    rates = [np.diff(c[at_depth + 500 :, [0, 4]], axis=0).mean(axis=0) for c in runs]
+    assert np.all(rates[1] != 0.0)
+    assert rates[0][0] == pytest.approx(rates[1][0], rel=1e-3), rates
+    assert rates[0][1] / rates[1][1] == pytest.approx(RobustParams().settle_gain, rel=1e-3), rates
 
 
 def test_a_tilt_row_turns_no_faster_than_tilt_rate() -> None:
