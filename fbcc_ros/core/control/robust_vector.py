@@ -21,8 +21,9 @@ from fbcc_ros.core.filters import notch_coefficients, second_order_coefficients
 
 
 def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray:
-    """The kernel's parameter vector (layout above) for the law's parameters ``p``, its
-    insertion ``ins`` (depth, speed) and the nominal pair ``nom``, at period ``dt``."""
+    """The kernel's parameter vector (its layout: the kernel's ``P_*`` indices) for the law's
+    parameters ``p``, its insertion ``ins`` (depth, speed) and the nominal pair ``nom``, at
+    period ``dt``."""
     noise = np.asarray(p.sensor_noise, dtype=float)
     # noise of the rows u = A F: offsets Fx, Fy; tilts dominated by M / R (eq. 28)
     su = np.array([noise[0], noise[1], noise[3] / nom.hole_radius,
@@ -86,8 +87,8 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
     prm[rk.P_SEARCH_RANGE] = p.search_range if nom.hole_radius > nom.peg_radius else 0.0
     prm[rk.P_SEARCH_FORCE] = p.search_force
     prm[rk.P_WEDGE_FORCE] = p.wedge_force if nom.hole_radius > nom.peg_radius else 0.0
-    prm[rk.P_WEDGE_DEPTHS : rk.P_WEDGE_DEPTHS + 2] = wedge.depths(nom.hole_radius, nom.peg_radius,
-                                                            nom.chamfer)  # fmt: skip
+    prm[rk.P_WEDGE_DEPTHS : rk.P_WEDGE_DEPTHS + 2] = wedge.depths(
+        nom.hole_radius, nom.peg_radius, nom.chamfer)  # fmt: skip
     prm[rk.P_LEAN_ARM] = nom.peg_length if nom.acting_point == "peg_top" else 0.0
     prm[rk.P_DEPTH_F : rk.P_DEPTH_F + 6] = second_order_coefficients(
         p.depth_filter_frequency, p.filter_damping, dt)  # fmt: skip
