@@ -72,7 +72,9 @@ P_SEARCH_FORCE = P_SEARCH_RANGE + 1  # the axial force it holds [N]
 P_LEAN_ARM = P_SEARCH_FORCE + 1  # the acting point's height over the tip if on the peg [m]
 P_WEDGE_FORCE = P_LEAN_ARM + 1  # the axial force of a wedged clearance fit [N] (0: none)
 P_WEDGE_DEPTHS = P_WEDGE_FORCE + 1  # the depths between which it can wedge (2) [m]
-N_PARAMS = P_WEDGE_DEPTHS + 2
+P_BORE_GAIN = P_WEDGE_DEPTHS + 2  # the tilt loops' gain in a clearance fit's bore (of ω_c)
+P_PULL = P_BORE_GAIN + 1  # the most the depth loop pulls on the peg [N] (0: no bound)
+N_PARAMS = P_PULL + 1
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
@@ -233,9 +235,15 @@ def robust_rows(
             v_d = (jac[3] * excess[r_d] - jac[1] * excess[r_t]) / det
             v_t = (jac[0] * excess[r_t] - jac[2] * excess[r_d]) / det
             # at the depth the fit is no longer excited while the tilt's stiffness still
-            # rises (as l³): the tilt loops settle at a fraction of ω_c, inside the gain margin
+            # rises (as l³): the tilt loops settle at a fraction of ω_c, inside the gain margin;
+            # in a clearance fit's bore a peg in two-point contact goes in only as fast as they
+            # turn it upright (robust_params.bore_gain)
             wc = prm[P_WC]
-            wc_t = wc if m[C_REACHED] == 0.0 else prm[P_SETTLE_GAIN] * wc
+            wc_t = wc
+            if m[C_REACHED] > 0.0:
+                wc_t = prm[P_SETTLE_GAIN] * wc
+            elif depth >= prm[P_ENTRY_DEPTH]:
+                wc_t = prm[P_BORE_GAIN] * wc
             if not searching:  # on the face its friction is not an offset
                 m[C_INT + ident.ROWS[r_d]] += wc * v_d * dt
             if depth >= prm[P_TILT_DEPTH]:  # at the entry a tilt row cannot tell tilt
@@ -294,6 +302,8 @@ def robust_rows(
             rate = min(rate, 0.0)
         if w[i, 2] > prm[P_FZ_BACK]:
             rate = -v
+        elif prm[P_PULL] > 0.0 and w[i, 2] < -prm[P_PULL]:  # robust_params.pull_limit
+            rate = max(rate, 0.0)
         lc = m[C_LCMD] + rate * dt
         lc = min(lc, x[i, 2] + v * prm[P_LEAD], prm[P_DEPTH])
         m[C_LCMD] = lc

@@ -69,6 +69,12 @@ class RobustParams:
         fz_back_off: Axial force above which the insertion backs off [N]: above the largest
             push-in the law is asked to make (the studies admit 2/3 of ``F_ext_limit``, 200 N;
             backing off at 200 N itself left such parts hovering short of the depth).
+        pull_limit: The most the depth loop pulls on the peg [N] (0: no bound): backing out
+            of a fit whose rows read loud, it stops backing out once F_z is below -pull_limit,
+            leaving a peg held by friction to the tilt loops and the wedge probe. Off by
+            default: on MuJoCo's first 40 parts 20 N cut the peak abs(F) p99 from 140 N to
+            40 N but assembled 33 against 35 (a pull freed 2), and on the next 120 the tail
+            moved from pulls to pushes (F_z p99 46 -> 112 N; docs/plant.md).
         guard_growth, guard_cycles: :class:`fbcc_ros.core.control.guard.GuardParams`; the guard's
             minimum amplitude is ``guard_amplitude`` times the row's filtered noise.
         guard_amplitude: See above (dimensionless).
@@ -94,6 +100,15 @@ class RobustParams:
             compliant grip makes the plane softer than the estimate's floor their loop is
             already slower than designed (at a quarter, 370 of docs/integration.md's 1000 parts
             at 100 Hz ended pressed against the wall by over 0.5 N; 171 at the full one).
+        bore_gain: The tilt loops' crossover in a clearance fit's bore (past ``entry_depth``,
+            before the depth), as a multiple of ω_c (1: off, the default). A peg in two-point
+            contact there goes in only as fast as the tilt loops turn it upright (at depth l
+            its tilt is at most 2c/l), at ω_c over the stiffness of the side it presses while
+            the side it turns toward has none: on MuJoCo a peg in a 44 µm bore crept in at
+            0.15 mm/s. 2 keeps 24-34° of phase margin where the estimate is exact
+            (:func:`~fbcc_ros.core.control.loop_design.loop_margins`). Not the default: it
+            assembles more of MuJoCo's parts and of the model's at 100 Hz, but a part within
+            0.5 µm of line-to-line, held all round, rings at it (docs/plant.md).
         coupling_limit: How much of a plane's identified coupling the law inverts:
             |J01 J10| <= coupling_limit J00 J11 (0: the rows alone, as FBCC's A(l)).
         plane_gate: A plane whose two rows are both inside their dead band holds (nothing to
@@ -172,6 +187,7 @@ class RobustParams:
     depth_filter_frequency: float = 400.0
     depth_lead: float = 0.01
     fz_back_off: float = 250.0
+    pull_limit: float = 0.0
     guard_growth: float = 0.9
     guard_cycles: int = 8
     guard_amplitude: float = 40.0
@@ -180,6 +196,7 @@ class RobustParams:
     guard_hold: float = 0.05
     settle_force: float = 0.25
     settle_gain: float = 0.25
+    bore_gain: float = 1.0
     coupling_limit: float = 0.0
     plane_gate: bool = True
     offset_resolution: float = 1e-6
@@ -250,6 +267,13 @@ class RobustParams:
             raise ConfigError("tilt_depth", t, "a depth in [0, 0.005] m")
         if self.settle_gain > 1.0:
             raise ConfigError("settle_gain", self.settle_gain, "a fraction in (0, 1] of ω_c")
+        b = self.bore_gain
+        if isinstance(b, bool) or not isinstance(b, (int, float)) or not 1.0 <= b <= 2.0:
+            raise ConfigError("bore_gain", b, "a multiple in [1, 2] of ω_c (1: off; above 2 "
+                              "the loop with an exact estimate keeps under 24° of phase margin)")
+        p = self.pull_limit
+        if isinstance(p, bool) or not isinstance(p, (int, float)) or not 0.0 <= p < most:
+            raise ConfigError("pull_limit", p, f"a force in [0, F_ext_limit = {most} N) (0: off)")
         if self.guard_backoff <= 1.0:
             raise ConfigError("guard_backoff", self.guard_backoff, "a factor > 1")
         guard_mod.GuardParams(self.guard_growth, self.guard_cycles, 1.0)  # checks those two

@@ -42,6 +42,7 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
     prm[rk.P_DITH_MAX_X], prm[rk.P_DITH_MAX_T] = p.dither_max_offset, p.dither_max_tilt
     prm[rk.P_U_X], prm[rk.P_U_T] = p.offset_force, p.tilt_effort
     prm[rk.P_WL], prm[rk.P_FZ_BACK] = chosen.depth_bandwidth, p.fz_back_off
+    prm[rk.P_PULL] = p.pull_limit
     prm[rk.P_LEAD] = p.depth_lead + p.loop_delay  # the measured depth lags by the delay
     prm[rk.P_G_GROWTH], prm[rk.P_G_CYCLES] = p.guard_growth, p.guard_cycles
     prm[rk.P_G_AMP], prm[rk.P_G_BACKOFF], prm[rk.P_G_HOLD] = (
@@ -87,6 +88,8 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
     prm[rk.P_SEARCH_RANGE] = p.search_range if nom.hole_radius > nom.peg_radius else 0.0
     prm[rk.P_SEARCH_FORCE] = p.search_force
     prm[rk.P_WEDGE_FORCE] = p.wedge_force if nom.hole_radius > nom.peg_radius else 0.0
+    # an interference fit holds its peg all round: no side of it is free to turn into
+    prm[rk.P_BORE_GAIN] = p.bore_gain if nom.hole_radius > nom.peg_radius else 1.0
     prm[rk.P_WEDGE_DEPTHS : rk.P_WEDGE_DEPTHS + 2] = wedge.depths(
         nom.hole_radius, nom.peg_radius, nom.chamfer)  # fmt: skip
     prm[rk.P_LEAN_ARM] = nom.peg_length if nom.acting_point == "peg_top" else 0.0

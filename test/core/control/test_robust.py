@@ -340,6 +340,7 @@ _CHANGED: dict[str, tuple[object, dict[str, object]]] = {
     "fz_back_off": (5.0, {}),  # below the run's peak Fz (9.3 N)
     "F_ext_limit": (15.0, {"fz_back_off": 10.0, "wedge_force": 10.0}),
     "coupling_limit": (0.5, {}),
+    "bore_gain": (2.0, {}),  # 1 by default: off
     "plane_gate": (False, {}),
     "friction_max": (0.0, {}),  # off: the lever keeps the scenario's μ
     # at 1 kHz and 5 mm/s the default step is the insertion's own: a smaller one acts
@@ -367,7 +368,8 @@ def _commands(params: RobustParams, duration: float = 1.5) -> np.ndarray:
 
 @pytest.mark.parametrize("name", [f.name for f in dataclasses.fields(RobustParams)
                                   if not f.name.startswith("search_")  # test_hole_search's
-                                  and f.name != "wedge_force"])  # test_wedge's
+                                  and f.name not in ("wedge_force",  # test_wedge's
+                                                     "pull_limit")])  # acts on a pull alone
 def test_every_robust_parameter_changes_the_commands(name: str) -> None:
     """Each parameter of the robust law acts: changed, the commands of a stiff clearance run
     (or, for the leads, of a part behind 50 ms of command delay) are not the same."""
@@ -667,6 +669,58 @@ def test_at_the_depth_the_tilt_loops_settle_at_settle_gain() -> None:
     assert np.all(rates[1] != 0.0)
     assert rates[0][0] == pytest.approx(rates[1][0], rel=1e-3), rates
     assert rates[0][1] / rates[1][1] == pytest.approx(RobustParams().settle_gain, rel=1e-3), rates
+
+
+def test_in_a_clearance_fits_bore_the_tilt_loops_run_at_bore_gain() -> None:
+    """Past the entry a clearance fit's peg in two-point contact goes in only as fast as the tilt
+    loops turn it upright: they run at bore_gain of their crossover there. A steady load on the
+    rows of one plane from the start: through the entry the commands are the same whatever
+    bore_gain; past it the tilt command turns bore_gain times as fast as at 1 (the dither and
+    the fit's response on top: within 2 %). An interference fit, held all round, keeps ω_c."""
+    gain = 2.0
+    load = np.array([0.5, 0.0, 5.0, 0.0, 0.002])
+    for fit in ("clearance", "interference"):
+        runs = []
+        for bore in (gain, 1.0):
+            law = RobustFbcc(_pair(fit, 1e9), RobustParams(tilt_depth=0.0, bore_gain=bore))
+            x = np.zeros(5)
+            law.reset(x)
+            commands = []
+            for _ in range(1200):
+                x = law.step(load, x, DT)
+                commands.append(x.copy())
+            runs.append(np.array(commands))
+        apart = np.flatnonzero(np.any(runs[0] != runs[1], axis=1))
+        if fit == "interference":
+            assert apart.size == 0
+            continue
+        past = int(np.argmax(runs[0][:, 2] >= RobustParams().entry_depth))
+        assert 0 < past <= apart[0] < past + 10, (past, apart[:3])
+        assert runs[0][-1, 2] < 0.01  # still in the bore
+        turns = [np.diff(c[past + 100 :, 4]).mean() for c in runs]
+        assert turns[0] / turns[1] == pytest.approx(gain, rel=0.02), turns
+
+
+def test_backing_out_pulls_the_peg_by_at_most_pull_limit() -> None:
+    """Rows loaded past their hold back the depth out. Once F_z pulls beyond pull_limit the
+    depth loop stops backing out (a wedged peg on MuJoCo was pulled at up to 134 N until it
+    sprang free): the depth falls by under a tenth of what it falls with no limit (0, the
+    default), where the features' depth moves only as the tilt commands turn the axis."""
+    params = RobustParams()
+    drops = []
+    for pull in (20.0, 0.0):  # 0: no bound (the default)
+        law = RobustFbcc(_pair("clearance", 1e9), RobustParams(pull_limit=pull))
+        x = np.zeros(5)
+        x[2] = 0.003
+        law.reset(x)
+        depths = []
+        for k in range(600):
+            fz = 5.0 if k < 200 else -40.0
+            x = law.step(np.array([2.0 * params.offset_force, 0.0, fz, 0.0, 0.0]), x, DT)
+            depths.append(x[2])
+        assert depths[199] < 0.003  # backing out before the pull
+        drops.append(depths[199] - depths[-1])
+    assert drops[1] > 1e-3 and drops[0] < 0.1 * drops[1], drops
 
 
 def test_a_tilt_row_turns_no_faster_than_tilt_rate() -> None:
