@@ -84,12 +84,13 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
     prm[rk.P_ENTRY_STEP], prm[rk.P_ENTRY_DEPTH] = p.entry_step, p.entry_depth
     prm[rk.P_SEARCH_SPEED] = p.search_speed
     # an interference fit's peg is wider than its bore: it always meets the rim, and only a
-    # chamfer leads it in (hole_search)
-    prm[rk.P_SEARCH_RANGE] = p.search_range if nom.hole_radius > nom.peg_radius else 0.0
+    # chamfer leads it in (hole_search); it is held all round, so it neither wedges nor has a
+    # side free to turn into
+    clearance = nom.hole_radius > nom.peg_radius
+    prm[rk.P_SEARCH_RANGE] = p.search_range if clearance else 0.0
     prm[rk.P_SEARCH_FORCE] = p.search_force
-    prm[rk.P_WEDGE_FORCE] = p.wedge_force if nom.hole_radius > nom.peg_radius else 0.0
-    # an interference fit holds its peg all round: no side of it is free to turn into
-    prm[rk.P_BORE_GAIN] = p.bore_gain if nom.hole_radius > nom.peg_radius else 1.0
+    prm[rk.P_WEDGE_FORCE] = p.wedge_force if clearance else 0.0
+    prm[rk.P_BORE_GAIN] = p.bore_gain if clearance else 1.0
     prm[rk.P_WEDGE_DEPTHS : rk.P_WEDGE_DEPTHS + 2] = wedge.depths(
         nom.hole_radius, nom.peg_radius, nom.chamfer)  # fmt: skip
     prm[rk.P_LEAN_ARM] = nom.peg_length if nom.acting_point == "peg_top" else 0.0
