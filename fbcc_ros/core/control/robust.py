@@ -38,7 +38,10 @@ than its own: the tilt row's identified slope is noise about zero while ∂u_d/�
 at the floor's gain the tilt integrates at tens of degrees a second and wedges the peg. The tilt
 row's stiffness in Ĵ is therefore at least ``|∂u_d/∂θ| U_θ / U_d`` (the fitted coupling, ``U`` as
 under Depth): a tilt step then moves the offset row's effort ``u_d / U_d`` no faster than
-``ω_c`` times the tilt row's own effort.
+``ω_c`` times the tilt row's own effort. Where the tilt loops run at ``bore_gain`` ω_c (a
+clearance fit's bore) the floor is ``bore_gain²`` times that: a part held all round, whose
+coupling sets the tilt row's slope, turns at ``ω_c / bore_gain`` there, while a peg pressed on
+one side, whose own slope sets it, turns at ``bore_gain`` ω_c.
 
 **Tilt rate.** A tilt row turns the peg no faster than ``tilt_rate``: the overshoot allowed
 in one stated ``loop_delay``. As a stiff part comes free its tilt row's stiffness falls and

@@ -220,9 +220,14 @@ def robust_rows(
         for plane in range(2):
             r_d, r_t = ident.PLANES[plane]
             coupling = ident.used_matrix(idn[i, plane], plane, prm[P_COUPLING], jac)
-            # k_θ >= |∂u_d/∂θ| U_θ / U_d: a tilt step then moves the offset row's effort no
-            # faster than ω_c times the tilt's own (module doc, coupled tilt row)
-            jac[3] = max(jac[3], abs(coupling) * prm[P_U_T] / prm[P_U_X])
+            # in a clearance fit's bore a peg in two-point contact goes in only as fast as the
+            # tilt loops turn it upright: they run at bore_gain ω_c (robust_params.bore_gain)
+            boost = 1.0
+            if m[C_REACHED] == 0.0 and depth >= prm[P_ENTRY_DEPTH]:
+                boost = prm[P_BORE_GAIN]
+            # k_θ >= boost² |∂u_d/∂θ| U_θ / U_d: a tilt step then moves the offset row's effort
+            # no faster than ω_c / boost times the tilt's own (module doc, coupled tilt row)
+            jac[3] = max(jac[3], boost * boost * abs(coupling) * prm[P_U_T] / prm[P_U_X])
             k_row[r_d], k_row[r_t] = jac[0], jac[3]
             if prm[P_GATE] > 0.0:
                 # plane gate: a plane whose rows are both inside the dead band is not in
@@ -235,15 +240,9 @@ def robust_rows(
             v_d = (jac[3] * excess[r_d] - jac[1] * excess[r_t]) / det
             v_t = (jac[0] * excess[r_t] - jac[2] * excess[r_d]) / det
             # at the depth the fit is no longer excited while the tilt's stiffness still
-            # rises (as l³): the tilt loops settle at a fraction of ω_c, inside the gain margin;
-            # in a clearance fit's bore a peg in two-point contact goes in only as fast as they
-            # turn it upright (robust_params.bore_gain)
+            # rises (as l³): the tilt loops settle at a fraction of ω_c, inside the gain margin
             wc = prm[P_WC]
-            wc_t = wc
-            if m[C_REACHED] > 0.0:
-                wc_t = prm[P_SETTLE_GAIN] * wc
-            elif depth >= prm[P_ENTRY_DEPTH]:
-                wc_t = prm[P_BORE_GAIN] * wc
+            wc_t = prm[P_SETTLE_GAIN] * wc if m[C_REACHED] > 0.0 else boost * wc
             if not searching:  # on the face its friction is not an offset
                 m[C_INT + ident.ROWS[r_d]] += wc * v_d * dt
             if depth >= prm[P_TILT_DEPTH]:  # at the entry a tilt row cannot tell tilt

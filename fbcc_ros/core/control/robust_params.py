@@ -106,9 +106,9 @@ class RobustParams:
             its tilt is at most 2c/l), at ω_c over the stiffness of the side it presses while
             the side it turns toward has none: on MuJoCo a peg in a 44 µm bore crept in at
             0.15 mm/s. 2 keeps 24-34° of phase margin where the estimate is exact
-            (:func:`~fbcc_ros.core.control.loop_design.loop_margins`). Not the default: it
-            assembles more of MuJoCo's parts and of the model's at 100 Hz, but a part within
-            0.5 µm of line-to-line, held all round, rings at it (docs/plant.md).
+            (:func:`~fbcc_ros.core.control.loop_design.loop_margins`). A part held all round,
+            whose coupling sets the tilt row's slope, turns at ω_c / bore_gain there instead
+            (robust.py, coupled tilt row). Not the default yet (docs/plant.md).
         coupling_limit: How much of a plane's identified coupling the law inverts:
             |J01 J10| <= coupling_limit J00 J11 (0: the rows alone, as FBCC's A(l)).
         plane_gate: A plane whose two rows are both inside their dead band holds (nothing to

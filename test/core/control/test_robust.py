@@ -416,16 +416,16 @@ def test_the_tilt_rows_wait_until_the_peg_is_in() -> None:
     assert at_once["tilt_misadjustment"] > 3.0 * held["tilt_misadjustment"], (held, at_once)
 
 
-def test_tight_stiff_pairs_are_not_wedged_by_the_tilt_rows() -> None:
+def _tight_stiff_pairs(seed: int, params: dict[str, float]) -> Any:
     """32 stiff pairs (20-100 GPa, μ 0.1-0.5) within 0.2-0.5 µm of line-to-line, offset by
-    50-100 µm and tilted by 0.3-2° in both planes: there the tilt rows' own slope is noise and
-    a tilt step moves the offset row 1e4 N/rad, so at the floor's gain the tilt rows wedged 1-4
-    of every 32 such parts into the force limit. Scaled by the coupling, none reaches it."""
+    50-100 µm and tilted by 0.3-2° in both planes, held rigidly, for a law that believes the
+    10 µm pair: their outcome under the robust law with ``params``."""
     sc = validate({"geometry": {"hole_radius": 5.05e-3, "peg_radius": 5.04e-3,
                                 "hole_depth": 0.01, "base_thickness": 0.005, "friction": 0.3,
                                 "stiffness": 1.84e8},
-                   "initial": {"dx": 0.0, "dy": 0.0, "theta_x": 0.0, "theta_y": 0.0}})  # fmt: skip
-    rng = np.random.default_rng(0)
+                   "initial": {"dx": 0.0, "dy": 0.0, "theta_x": 0.0, "theta_y": 0.0},
+                   "controller": {"type": "fbcc", "params": params}})  # fmt: skip
+    rng = np.random.default_rng(seed)
     n = 32
     parts = [dataclasses.replace(sc.geometry, stiffness=10 ** rng.uniform(10.3, 11),
                                  friction=rng.uniform(0.1, 0.5), peg_radius=5.04e-3,
@@ -436,7 +436,27 @@ def test_tight_stiff_pairs_are_not_wedged_by_the_tilt_rows() -> None:
     initial[:, :2] = sign[:, :2] * rng.uniform(50e-6, 100e-6, (n, 2))
     initial[:, 3:] = sign[:, 2:] * rng.uniform(0.005, 0.035, (n, 2))
     outcome, _ = simulate(sc, "fbcc", initial=initial, geometries=parts, record=False)
+    return outcome
+
+
+def test_tight_stiff_pairs_are_not_wedged_by_the_tilt_rows() -> None:
+    """In tight stiff pairs the tilt rows' own slope is noise and a tilt step moves the offset
+    row 1e4 N/rad, so at the floor's gain the tilt rows wedged 1-4 of every 32 such parts into
+    the force limit. Scaled by the coupling, none reaches it."""
+    outcome = _tight_stiff_pairs(0, {})
     assert not outcome.force_limited.any(), np.flatnonzero(outcome.force_limited)
+    assert outcome.success.all(), np.flatnonzero(~outcome.success)
+
+
+def test_in_the_bore_a_part_held_all_round_turns_slower_not_faster() -> None:
+    """At bore_gain 2 the tilt loops of a clearance fit's bore run at twice ω_c, but where the
+    coupling sets a tilt row's slope (a part held all round) its floor is bore_gain² times the
+    coupling's, so such a part turns at half ω_c there. With the floor at the coupling's alone
+    4 of these 32 parts stopped at the wrench guard's 270 N or ended short; at bore_gain times
+    it, 2. (Of the 32 of the test above one ends short at bore_gain 2: its slowest part, which
+    takes 3.2 s at 1.)"""
+    outcome = _tight_stiff_pairs(2, {"bore_gain": 2.0})
+    assert not outcome.wrench_guard_tripped.any(), np.flatnonzero(outcome.wrench_guard_tripped)
     assert outcome.success.all(), np.flatnonzero(~outcome.success)
 
 
