@@ -104,7 +104,9 @@ with what is in it (39.5 rad/s at the defaults). The depth loop sees the rows th
 low-pass (``depth_filter_frequency``), not H_f, whose lag would hold it to 29.5 rad/s, and past
 the dither notches. The command never leads the measured depth by more than
 ``v * depth_lead``, so a hold takes effect within a sample. An axial force above
-``fz_back_off`` backs off; backing out pulls the peg by at most ``pull_limit`` if set.
+``fz_back_off`` backs off; backing out pulls the peg by at most ``pull_limit`` if set, and in
+a clearance fit's bore the loop pushes by at most ``push_limit`` if set, unless a tilt row's
+slope is the coupling's (a part held all round; under Coupled tilt row).
 Through the entry (the first ``entry_depth``: a chamfer and the rim) it steps at most
 ``entry_step`` between two samples, whatever the rate (a late sample does not step further):
 the first contact comes within a step, before the law can see it.

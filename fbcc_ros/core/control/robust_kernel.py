@@ -74,7 +74,8 @@ P_WEDGE_FORCE = P_LEAN_ARM + 1  # the axial force of a wedged clearance fit [N] 
 P_WEDGE_DEPTHS = P_WEDGE_FORCE + 1  # the depths between which it can wedge (2) [m]
 P_BORE_GAIN = P_WEDGE_DEPTHS + 2  # the tilt loops' gain in a clearance fit's bore (of ω_c)
 P_PULL = P_BORE_GAIN + 1  # the most the depth loop pulls on the peg [N] (0: no bound)
-N_PARAMS = P_PULL + 1
+P_PUSH = P_PULL + 1  # the most it pushes in a clearance fit's bore [N] (0: no bound)
+N_PARAMS = P_PUSH + 1
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
@@ -217,6 +218,7 @@ def robust_rows(
             excess[j] = max(abs(xf[f]) - band, 0.0)
             if xf[f] < 0.0:
                 excess[j] = -excess[j]
+        held = False  # a tilt row's slope is the coupling's: the part is held all round
         for plane in range(2):
             r_d, r_t = ident.PLANES[plane]
             coupling = ident.used_matrix(idn[i, plane], plane, prm[P_COUPLING], jac)
@@ -227,7 +229,9 @@ def robust_rows(
                 boost = prm[P_BORE_GAIN]
             # k_θ >= boost² |∂u_d/∂θ| U_θ / U_d: a tilt step then moves the offset row's effort
             # no faster than ω_c / boost times the tilt's own (module doc, coupled tilt row)
-            jac[3] = max(jac[3], boost * boost * abs(coupling) * prm[P_U_T] / prm[P_U_X])
+            floor_t = boost * boost * abs(coupling) * prm[P_U_T] / prm[P_U_X]
+            held = held or floor_t > jac[3]
+            jac[3] = max(jac[3], floor_t)
             k_row[r_d], k_row[r_t] = jac[0], jac[3]
             if prm[P_GATE] > 0.0:
                 # plane gate: a plane whose rows are both inside the dead band is not in
@@ -295,6 +299,8 @@ def robust_rows(
             rate = min(rate, prm[P_ENTRY_STEP] / prm[P_DT])
         if searching:
             rate = min(rate, search.force_rate(w[i, 2], prm[P_SEARCH_FORCE], prm[P_WL]))
+        if prm[P_PUSH] > 0.0 and depth >= prm[P_ENTRY_DEPTH] and not held:
+            rate = min(rate, search.force_rate(w[i, 2], prm[P_PUSH], prm[P_WL]))  # push_limit
         if stuck:  # a light push while the probe turns the peg (wedge)
             rate = min(max(search.hold_rate(w[i, 2], prm[P_SEARCH_FORCE], prm[P_WL]), -v), v)
         if m[C_T] < m[C_HOLD]:

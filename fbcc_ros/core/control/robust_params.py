@@ -75,6 +75,13 @@ class RobustParams:
             default: on MuJoCo's first 40 parts 20 N cut the peak abs(F) p99 from 140 N to
             40 N but assembled 33 against 35 (a pull freed 2), and on the next 120 the tail
             moved from pulls to pushes (F_z p99 46 -> 112 N; docs/plant.md).
+        push_limit: The most the depth loop pushes on the peg in a clearance fit's bore [N]
+            (past ``entry_depth``; 0: no bound): above it the depth backs off
+            to it, unless a tilt row's slope is the coupling's (a part held all round, which
+            can need more to slide). A peg free in its bore slides in with little; pushed
+            harder it presses a jam tighter. Off by default: with ``bore_gain`` 2 and
+            ``pull_limit`` 20, 20 N cut the model's F_z p99 at 1 kHz from 40 N to 28 N
+            (docs/plant.md).
         guard_growth, guard_cycles: :class:`fbcc_ros.core.control.guard.GuardParams`; the guard's
             minimum amplitude is ``guard_amplitude`` times the row's filtered noise.
         guard_amplitude: See above (dimensionless).
@@ -188,6 +195,7 @@ class RobustParams:
     depth_lead: float = 0.01
     fz_back_off: float = 250.0
     pull_limit: float = 0.0
+    push_limit: float = 0.0
     guard_growth: float = 0.9
     guard_cycles: int = 8
     guard_amplitude: float = 40.0
@@ -271,9 +279,10 @@ class RobustParams:
         if isinstance(b, bool) or not isinstance(b, (int, float)) or not 1.0 <= b <= 2.0:
             raise ConfigError("bore_gain", b, "a multiple in [1, 2] of ω_c (1: off; above 2 "
                               "the loop with an exact estimate keeps under 24° of phase margin)")
-        p = self.pull_limit
-        if isinstance(p, bool) or not isinstance(p, (int, float)) or not 0.0 <= p < most:
-            raise ConfigError("pull_limit", p, f"a force in [0, F_ext_limit = {most} N) (0: off)")
+        for name in ("pull_limit", "push_limit"):
+            p = getattr(self, name)
+            if isinstance(p, bool) or not isinstance(p, (int, float)) or not 0.0 <= p < most:
+                raise ConfigError(name, p, f"a force in [0, F_ext_limit = {most} N) (0: off)")
         if self.guard_backoff <= 1.0:
             raise ConfigError("guard_backoff", self.guard_backoff, "a factor > 1")
         guard_mod.GuardParams(self.guard_growth, self.guard_cycles, 1.0)  # checks those two

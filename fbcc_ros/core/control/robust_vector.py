@@ -91,6 +91,7 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
     prm[rk.P_SEARCH_FORCE] = p.search_force
     prm[rk.P_WEDGE_FORCE] = p.wedge_force if clearance else 0.0
     prm[rk.P_BORE_GAIN] = p.bore_gain if clearance else 1.0
+    prm[rk.P_PUSH] = p.push_limit if clearance else 0.0
     prm[rk.P_WEDGE_DEPTHS : rk.P_WEDGE_DEPTHS + 2] = wedge.depths(
         nom.hole_radius, nom.peg_radius, nom.chamfer)  # fmt: skip
     prm[rk.P_LEAN_ARM] = nom.peg_length if nom.acting_point == "peg_top" else 0.0

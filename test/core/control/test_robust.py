@@ -341,6 +341,7 @@ _CHANGED: dict[str, tuple[object, dict[str, object]]] = {
     "F_ext_limit": (15.0, {"fz_back_off": 10.0, "wedge_force": 10.0}),
     "coupling_limit": (0.5, {}),
     "bore_gain": (2.0, {}),  # 1 by default: off
+    "push_limit": (5.0, {}),  # 0 by default: off; below the run's peak Fz (9.3 N)
     "plane_gate": (False, {}),
     "friction_max": (0.0, {}),  # off: the lever keeps the scenario's μ
     # at 1 kHz and 5 mm/s the default step is the insertion's own: a smaller one acts
@@ -741,6 +742,31 @@ def test_backing_out_pulls_the_peg_by_at_most_pull_limit() -> None:
         assert depths[199] < 0.003  # backing out before the pull
         drops.append(depths[199] - depths[-1])
     assert drops[1] > 1e-3 and drops[0] < 0.1 * drops[1], drops
+
+
+def test_in_a_clearance_fits_bore_the_peg_is_pushed_by_at_most_push_limit() -> None:
+    """Quiet rows let the depth loop push on; past the entry, once F_z is above push_limit, it
+    backs off to it instead (a peg that does not go in is pressed tighter by more): the depth
+    falls while the push lasts (15 N, under wedge_force), where with no bound (0, the default)
+    it runs on. An interference fit, which needs its push-in force, is never bounded."""
+    for fit in ("clearance", "interference"):
+        ends = []
+        for push in (10.0, 0.0):  # 0: no bound (the default)
+            law = RobustFbcc(_pair(fit, 1e9), RobustParams(push_limit=push))
+            x = np.zeros(5)
+            x[2] = 0.003
+            law.reset(x)
+            depths = []
+            for k in range(400):
+                fz = 5.0 if k < 100 else 15.0
+                x = law.step(np.array([0.0, 0.0, fz, 0.0, 0.0]), x, DT)
+                depths.append(x[2])
+            ends.append((depths[99], depths[-1]))
+        (before, bounded), (_, free) = ends
+        if fit == "interference":
+            assert bounded == free
+            continue
+        assert bounded < before < free, ends
 
 
 def test_a_tilt_row_turns_no_faster_than_tilt_rate() -> None:
