@@ -76,12 +76,11 @@ class RobustParams:
             40 N but assembled 33 against 35 (a pull freed 2), and on the next 120 the tail
             moved from pulls to pushes (F_z p99 46 -> 112 N; docs/plant.md).
         push_limit: The most the depth loop pushes on the peg in a clearance fit's bore [N]
-            (past ``entry_depth``; 0: no bound): above it the depth backs off
-            to it, unless a tilt row's slope is the coupling's (a part held all round, which
-            can need more to slide). A peg free in its bore slides in with little; pushed
-            harder it presses a jam tighter. Off by default: with ``bore_gain`` 2 and
-            ``pull_limit`` 20, 20 N cut the model's F_z p99 at 1 kHz from 40 N to 28 N
-            (docs/plant.md).
+            (past ``entry_depth``; 0: no bound): above it the depth backs off to it, unless a
+            tilt row's slope is the coupling's (a part held all round, which can need more to
+            slide). A peg free in its bore slides in with little; pushed harder it presses a
+            jam tighter. Off by default: with ``bore_gain`` 2 and ``pull_limit`` 20, 20 N cut
+            the model's F_z p99 at 1 kHz from 40 N to 28 N (docs/plant.md).
         guard_growth, guard_cycles: :class:`fbcc_ros.core.control.guard.GuardParams`; the guard's
             minimum amplitude is ``guard_amplitude`` times the row's filtered noise.
         guard_amplitude: See above (dimensionless).

@@ -179,7 +179,9 @@ def test_robust_is_the_default_and_labels_stay_available() -> None:
                       ("depth_filter_frequency", "400"), ("friction_max", 3.0),
                       ("friction_max", True), ("search_range", 0.02), ("search_range", -1e-3),
                       ("search_speed", 0.0), ("search_force", -5.0), ("wedge_force", -1.0),
-                      ("wedge_force", 300.0)):  # fmt: skip
+                      ("wedge_force", 300.0), ("bore_gain", 3.0), ("bore_gain", 0.5),
+                      ("pull_limit", -1.0), ("push_limit", 300.0),
+                      ("push_limit", True)):  # fmt: skip
         with pytest.raises(ConfigError, match=rf"params\.{name}") as err:
             params_from_mapping({name: bad})
         assert str(bad) in str(err.value) and "expected a" in str(err.value), err.value
