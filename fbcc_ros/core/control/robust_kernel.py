@@ -218,15 +218,15 @@ def robust_rows(
             excess[j] = max(abs(xf[f]) - band, 0.0)
             if xf[f] < 0.0:
                 excess[j] = -excess[j]
+        # in a clearance fit's bore a peg in two-point contact goes in only as fast as the tilt
+        # loops turn it upright: they run at bore_gain ω_c (robust_params.bore_gain)
+        boost = 1.0
+        if m[C_REACHED] == 0.0 and depth >= prm[P_ENTRY_DEPTH]:
+            boost = prm[P_BORE_GAIN]
         held = False  # a tilt row's slope is the coupling's: the part is held all round
         for plane in range(2):
             r_d, r_t = ident.PLANES[plane]
             coupling = ident.used_matrix(idn[i, plane], plane, prm[P_COUPLING], jac)
-            # in a clearance fit's bore a peg in two-point contact goes in only as fast as the
-            # tilt loops turn it upright: they run at bore_gain ω_c (robust_params.bore_gain)
-            boost = 1.0
-            if m[C_REACHED] == 0.0 and depth >= prm[P_ENTRY_DEPTH]:
-                boost = prm[P_BORE_GAIN]
             # k_θ >= boost² |∂u_d/∂θ| U_θ / U_d: a tilt step then moves the offset row's effort
             # no faster than ω_c / boost times the tilt's own (module doc, coupled tilt row)
             floor_t = boost * boost * abs(coupling) * prm[P_U_T] / prm[P_U_X]
