@@ -111,6 +111,15 @@ Through the entry (the first ``entry_depth``: a chamfer and the rim) it steps at
 ``entry_step`` between two samples, whatever the rate (a late sample does not step further):
 the first contact comes within a step, before the law can see it.
 
+**The grip's compression.** The depth the law reads is the arm's; a push F_z compresses what
+holds the peg by F_z / k (``axial_stiffness``, 0: rigid), so the command's end is the depth
+plus F_z / k. Past the depth it does not fall back as F_z does (the arm behind its command),
+and the peg it believes (the arm's depth less F_z / k) must keep going in: one that falls back
+by more than its noise has stopped short of the depth the grip was said to leave (a grip softer
+than stated, on the hole's bottom), and the command stops where the arm is. Reached, the fit
+holds the peg: the command moves at most ``entry_step`` a sample, backs off no further than the
+depth (it does not pull the peg), and does not push into the compression again.
+
 **The noise it is told.** ``sensor_noise`` sets the dead zone, the stiffness's noise floor, the
 guard's threshold and the depth loop's ``n_j``. An F/T sensor's is the default. A source noisier
 than that (the LBR's virtual sensor from its measured torques reads its moments 15 times
@@ -241,7 +250,8 @@ class RobustFbcc:
         m = self._main[trial]
         if m[rk.C_STOPPED]:
             return Phase.FORCE_LIMIT
-        return Phase.INSERTED if m[rk.C_LCMD] >= self.insertion.depth else Phase.INSERTING
+        reached = m[rk.C_LCMD] >= self.insertion.depth + m[rk.C_SINK]  # the grip's compression
+        return Phase.INSERTED if reached else Phase.INSERTING
 
     @property
     def phase(self) -> list[Phase]:

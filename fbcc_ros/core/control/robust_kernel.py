@@ -47,7 +47,9 @@ C_SAMPLES = 88  # samples since the start (the dither's phase)
 C_LEVER = 89  # the lever's friction (identification.N_LEVER columns; 0: the scenario's μ)
 C_SEARCHED = C_LEVER + ident.N_LEVER  # the hole search's travel so far [m] (hole_search)
 C_WEDGE = C_SEARCHED + 1  # a wedge's state (wedge.N_STATE columns)
-N_MAIN = C_WEDGE + wedge.N_STATE
+C_SINK = C_WEDGE + wedge.N_STATE  # how far the grip held the peg above the arm [m] (P_SINK)
+C_PEG = C_SINK + 1  # the deepest the peg was believed past the depth (arm's depth - C_SINK) [m]
+N_MAIN = C_PEG + 1
 
 # Indices into the parameter vector of the kernel.
 (P_WC, P_DB_X, P_DB_Y, P_DB_TX, P_DB_TY, P_FORGET, P_KMIN, P_RELEASE, P_DITH_F,
@@ -75,7 +77,9 @@ P_WEDGE_DEPTHS = P_WEDGE_FORCE + 1  # the depths between which it can wedge (2) 
 P_BORE_GAIN = P_WEDGE_DEPTHS + 2  # the tilt loops' gain in a clearance fit's bore (of ω_c)
 P_PULL = P_BORE_GAIN + 1  # the most the depth loop pulls on the peg [N] (0: no bound)
 P_PUSH = P_PULL + 1  # the most it pushes in a clearance fit's bore [N] (0: no bound)
-N_PARAMS = P_PUSH + 1
+P_SINK = P_PUSH + 1  # the grip's axial compliance [m/N] (0: rigid; robust_params.axial_stiffness)
+P_SLIP = P_SINK + 1  # how far the believed peg may fall back before it counts as stopped [m]
+N_PARAMS = P_SLIP + 1
 
 
 @numba.njit(cache=True)  # type: ignore[misc]
@@ -135,7 +139,7 @@ def robust_rows(
         ident.floor_row(depth, prm[P_KMIN], floor)
         for j in range(4):  # the noise floor: no gain that noise alone could drive further
             floor[j] = max(floor[j], prm[P_NFLOOR_X + j])
-        if m[C_LCMD] >= prm[P_DEPTH]:
+        if m[C_LCMD] >= prm[P_DEPTH] + m[C_SINK]:
             m[C_REACHED] = 1.0
         # at the depth nothing excites the fit: it may raise the estimate, not release it
         release = prm[P_RELEASE] if m[C_REACHED] == 0.0 else 1.0
@@ -270,7 +274,7 @@ def robust_rows(
             f = ident.ROWS[j]
             k_used = k_row[j]
             amp = 0.0
-            if contact and m[C_LCMD] < prm[P_DEPTH]:  # dither while inserting: sized, capped
+            if contact and m[C_LCMD] < prm[P_DEPTH] + m[C_SINK]:  # while inserting: sized, capped
                 cap = prm[P_DITH_MAX_X] if j < 2 else prm[P_DITH_MAX_T]
                 size = prm[P_DITH_F] if j < 2 else prm[P_DITH_E]
                 amp = min(size / k_used, cap)
@@ -297,6 +301,12 @@ def robust_rows(
             rate = min(max(rate, -v), v)
         if depth < prm[P_ENTRY_DEPTH]:  # through the rim: one step a sample, whatever the rate
             rate = min(rate, prm[P_ENTRY_STEP] / prm[P_DT])
+        if m[C_REACHED] > 0.0 and prm[P_SINK] > 0.0:
+            # at the depth with the grip's compression told (axial_stiffness) the fit holds the
+            # peg, on the hole's bottom maybe: the arm moves one step a sample either way (100
+            # Hz: a tenth of the insertion's), and does not pull it (it backs off to the depth)
+            step = prm[P_ENTRY_STEP] / prm[P_DT]
+            rate = min(max(rate, -step, min(prm[P_DEPTH] - m[C_LCMD], 0.0) / dt), step)
         if searching:
             rate = min(rate, search.force_rate(w[i, 2], prm[P_SEARCH_FORCE], prm[P_WL]))
         if prm[P_PUSH] > 0.0 and depth >= prm[P_ENTRY_DEPTH] and not held:
@@ -309,8 +319,27 @@ def robust_rows(
             rate = -v
         elif prm[P_PULL] > 0.0 and w[i, 2] < -prm[P_PULL]:  # robust_params.pull_limit
             rate = max(rate, 0.0)
+        # the arm's depth is the peg's plus the grip's axial compression F_z / k: the arm goes
+        # that much deeper (robust_params.axial_stiffness) and, once there, holds; backed off,
+        # it does not push in again (its fit holds the peg, maybe on the hole's bottom)
+        sink = max(w[i, 2], 0.0) * prm[P_SINK]
+        if m[C_REACHED] > 0.0:
+            sink = min(m[C_SINK], max(m[C_LCMD] - prm[P_DEPTH], 0.0))
+        elif prm[P_SINK] > 0.0 and m[C_LCMD] >= prm[P_DEPTH]:
+            # past the arm's depth F_z falling (the arm behind its command) must not pull the
+            # command back: the arm would pull the peg out and push it back in
+            sink = max(sink, m[C_SINK])
+            # the believed peg (arm - F_z / k) must keep going in: falling back, it has
+            # stopped (at the hole's bottom, a grip softer than stated) and the arm stops
+            # where it is, or it would push on for ever
+            peg = x[i, 2] - max(w[i, 2], 0.0) * prm[P_SINK]
+            m[C_PEG] = max(m[C_PEG], peg)
+            if m[C_PEG] - peg > prm[P_SLIP]:
+                sink = max(min(m[C_LCMD], x[i, 2]) - prm[P_DEPTH], 0.0)
+                m[C_REACHED] = 1.0
+        m[C_SINK] = sink
         lc = m[C_LCMD] + rate * dt
-        lc = min(lc, x[i, 2] + v * prm[P_LEAD], prm[P_DEPTH])
+        lc = min(lc, x[i, 2] + v * prm[P_LEAD], prm[P_DEPTH] + sink)
         m[C_LCMD] = lc
         command[i, 2] = lc
 

@@ -81,6 +81,14 @@ class RobustParams:
             slide). A peg free in its bore slides in with little; pushed harder it presses a
             jam tighter. Off by default: with ``bore_gain`` 2 and ``pull_limit`` 20, 20 N cut
             the model's F_z p99 at 1 kHz from 40 N to 28 N (docs/plant.md).
+        axial_stiffness: The stiffness along the peg's axis of what holds it (arm, F/T sensor,
+            gripper) [N/m] (0: rigid, the default). The depth the law reads is the arm's; a
+            push F_z compresses the grip by F_z / k, so the arm goes that much deeper to put
+            the peg at the depth (a press fit's 200 N in a 1e6 N/m grip: 0.2 mm). Stated too
+            stiff, the peg ends short by F_z times the difference of the compliances; too soft,
+            it is pushed on until the peg the law believes stops going in (module doc: on the
+            hole's bottom, within 2 µm). Measure it by pressing the grasped peg on a rigid
+            face: F_z over the arm's travel (docs/integration.md).
         guard_growth, guard_cycles: :class:`fbcc_ros.core.control.guard.GuardParams`; the guard's
             minimum amplitude is ``guard_amplitude`` times the row's filtered noise.
         guard_amplitude: See above (dimensionless).
@@ -195,6 +203,7 @@ class RobustParams:
     fz_back_off: float = 250.0
     pull_limit: float = 0.0
     push_limit: float = 0.0
+    axial_stiffness: float = 0.0
     guard_growth: float = 0.9
     guard_cycles: int = 8
     guard_amplitude: float = 40.0
@@ -278,6 +287,9 @@ class RobustParams:
         if isinstance(b, bool) or not isinstance(b, (int, float)) or not 1.0 <= b <= 2.0:
             raise ConfigError("bore_gain", b, "a multiple in [1, 2] of ω_c (1: off; above 2 "
                               "the loop with an exact estimate keeps under 24° of phase margin)")
+        k = self.axial_stiffness
+        if isinstance(k, bool) or not isinstance(k, (int, float)) or not 0.0 <= k < math.inf:
+            raise ConfigError("axial_stiffness", k, "a stiffness >= 0 [N/m] (0: rigid)")
         for name in ("pull_limit", "push_limit"):
             p = getattr(self, name)
             if isinstance(p, bool) or not isinstance(p, (int, float)) or not 0.0 <= p < most:

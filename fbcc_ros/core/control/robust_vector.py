@@ -19,6 +19,11 @@ from fbcc_ros.core.control.loop_design import design
 from fbcc_ros.core.control.robust_params import DITHER_FRACTIONS, NOTCH_QUALITY, RobustParams
 from fbcc_ros.core.filters import notch_coefficients, second_order_coefficients
 
+#: How far the believed peg past the depth (the arm's depth less F_z / axial_stiffness) may fall
+#: back before it counts as stopped [m], and in deviations of its noise if more.
+SLIP = 2e-6
+SLIP_DEVIATIONS = 10.0
+
 
 def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray:
     """The kernel's parameter vector (its layout: the kernel's ``P_*`` indices) for the law's
@@ -43,6 +48,9 @@ def parameters(p: RobustParams, ins: Any, nom: PegHole, dt: float) -> FloatArray
     prm[rk.P_U_X], prm[rk.P_U_T] = p.offset_force, p.tilt_effort
     prm[rk.P_WL], prm[rk.P_FZ_BACK] = chosen.depth_bandwidth, p.fz_back_off
     prm[rk.P_PULL] = p.pull_limit
+    prm[rk.P_SINK] = 1.0 / p.axial_stiffness if p.axial_stiffness > 0.0 else 0.0
+    # the believed peg's noise (F_z's over k) must not read as falling back
+    prm[rk.P_SLIP] = max(SLIP, SLIP_DEVIATIONS * noise[2] * prm[rk.P_SINK])
     prm[rk.P_LEAD] = p.depth_lead + p.loop_delay  # the measured depth lags by the delay
     prm[rk.P_G_GROWTH], prm[rk.P_G_CYCLES] = p.guard_growth, p.guard_cycles
     prm[rk.P_G_AMP], prm[rk.P_G_BACKOFF], prm[rk.P_G_HOLD] = (

@@ -372,6 +372,7 @@ def _commands(params: RobustParams, duration: float = 1.5) -> np.ndarray:
 @pytest.mark.parametrize("name", [f.name for f in dataclasses.fields(RobustParams)
                                   if not f.name.startswith("search_")  # test_hole_search's
                                   and f.name not in ("wedge_force",  # test_wedge's
+                                                     "axial_stiffness",  # test_axial_grip's
                                                      "pull_limit")])  # acts on a pull alone
 def test_every_robust_parameter_changes_the_commands(name: str) -> None:
     """Each parameter of the robust law acts: changed, the commands of a stiff clearance run
