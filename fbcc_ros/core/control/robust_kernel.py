@@ -322,7 +322,8 @@ def robust_rows(
         # the arm's depth is the peg's plus the grip's axial compression F_z / k: the arm goes
         # that much deeper (robust_params.axial_stiffness) and, once there, holds; backed off,
         # it does not push in again (its fit holds the peg, maybe on the hole's bottom)
-        sink = max(w[i, 2], 0.0) * prm[P_SINK]
+        compressed = max(w[i, 2], 0.0) * prm[P_SINK]
+        sink = compressed
         if m[C_REACHED] > 0.0:
             sink = min(m[C_SINK], max(m[C_LCMD] - prm[P_DEPTH], 0.0))
         elif prm[P_SINK] > 0.0 and m[C_LCMD] >= prm[P_DEPTH]:
@@ -332,7 +333,7 @@ def robust_rows(
             # the believed peg (arm - F_z / k) must keep going in: falling back, it has
             # stopped (at the hole's bottom, a grip softer than stated) and the arm stops
             # where it is, or it would push on for ever
-            peg = x[i, 2] - max(w[i, 2], 0.0) * prm[P_SINK]
+            peg = x[i, 2] - compressed
             m[C_PEG] = max(m[C_PEG], peg)
             if m[C_PEG] - peg > prm[P_SLIP]:
                 sink = max(min(m[C_LCMD], x[i, 2]) - prm[P_DEPTH], 0.0)
