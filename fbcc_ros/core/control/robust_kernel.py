@@ -304,7 +304,7 @@ def robust_rows(
         if m[C_REACHED] > 0.0 and prm[P_SINK] > 0.0:
             # at the depth with the grip's compression told (axial_stiffness) the fit holds the
             # peg, on the hole's bottom maybe: the arm moves one step a sample either way (100
-            # Hz: a tenth of the insertion's), and does not pull it (it backs off to the depth)
+            # Hz: a fifth of the insertion's), and does not pull it (it backs off to the depth)
             step = prm[P_ENTRY_STEP] / prm[P_DT]
             rate = min(max(rate, -step, min(prm[P_DEPTH] - m[C_LCMD], 0.0) / dt), step)
         if searching:

@@ -18,10 +18,10 @@ The issue states the time goal for its study, 3 s at 5 mm/s over 10 mm at 1 kHz:
 (2 s) and one second for the entry and the alignment. :func:`time_goal` keeps that second for
 any other insertion (a 15 mm hole at 5 mm/s: 4 s), so a study of another part is judged on its
 own travel rather than on the 10 mm one. A slower loop is given more: the approach into a
-stiff contact is paced by the period (one ``entry_step`` a period: 0.6 mm take 0.12 s at 1 kHz
-and 1.2 s at 100 Hz), and the issue gives 4 s at 100 Hz. Between, and below 100 Hz, the extra
-time is in proportion to the period beyond 1 ms (250 Hz: 3.33 s; 50 Hz: 5.1 s); none above
-1 kHz.
+stiff contact is paced by the period (one ``entry_step`` a period: 0.6 mm take 0.6 s at 100 Hz,
+and at 1 kHz the insertion's own 0.12 s), and the issue gives 4 s at 100 Hz. Between, and below
+100 Hz, the extra time is in proportion to the period beyond 1 ms (250 Hz: 3.33 s; 50 Hz:
+5.1 s); none above 1 kHz.
 """
 
 from __future__ import annotations

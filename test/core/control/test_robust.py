@@ -829,7 +829,7 @@ def test_the_lever_takes_the_parts_friction_and_the_tilts_stay_on_their_path() -
 @pytest.mark.parametrize("rate_hz", [100.0, 250.0, 1000.0])
 def test_the_entry_is_crossed_a_step_a_period_whatever_the_rate(rate_hz: float) -> None:
     """In free space the depth command moves at most ``entry_step`` a period through the
-    first ``entry_depth``, at the insertion's speed below it: at 100 Hz 5 µm, not 50 µm."""
+    first ``entry_depth``, at the insertion's speed below it: at 100 Hz 10 µm, not 50 µm."""
     p = RobustParams()
     law = RobustFbcc(_pair("clearance", 1e11), p)
     dt = 1.0 / rate_hz

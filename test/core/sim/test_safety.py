@@ -58,6 +58,21 @@ def test_the_laws_force_limit_holds_where_the_arm_was_not_where_it_was_sent() ->
     assert k > 0 and traj.command[k - 1, 0, 2] > traj.pose[k, 0, 2]
 
 
+def test_the_paced_entry_meets_the_same_wall_under_the_guard() -> None:
+    """Paced (the default ``entry_step``), the same first contact stays under the guard's
+    limit: the rigidly held steel peg takes about 19 N a micrometre, so 10 µm a period is about
+    190 N where the unpaced 50 µm step is 950 N (twice the step would reach the force limit)."""
+    scenario = _scenario()
+    scenario["controller"]["params"] = {}
+    scenario["duration"] = 1.0  # the first 0.6 mm at 10 µm a period: the contact comes early
+    outcome, traj = simulate(validate(scenario), "fbcc")
+    assert traj is not None
+    assert not (outcome.wrench_guard_tripped[0] or outcome.force_limited[0]), outcome.stop_reason
+    force = np.linalg.norm(traj.measured[:, 0, :3], axis=1)
+    assert 50.0 < force.max() < 0.9 * GuardLimits().force_limit  # the contact was made
+    assert traj.pose[-1, 0, 2] > 5e-4  # and the peg is going in
+
+
 def test_a_trial_within_the_limits_runs_to_its_end() -> None:
     sc = _scenario()
     sc["geometry"]["stiffness"] = 1.84e8  # the calibrated plastic part
