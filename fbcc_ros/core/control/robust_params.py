@@ -71,16 +71,17 @@ class RobustParams:
             backing off at 200 N itself left such parts hovering short of the depth).
         pull_limit: The most the depth loop pulls on the peg [N] (0: no bound): backing out
             of a fit whose rows read loud, it stops backing out once F_z is below -pull_limit,
-            leaving a peg held by friction to the tilt loops and the wedge probe. Off by
-            default: on MuJoCo's first 40 parts 20 N cut the peak abs(F) p99 from 140 N to
-            40 N but assembled 33 against 35 (a pull freed 2), and on the next 120 the tail
-            moved from pulls to pushes (F_z p99 46 -> 112 N; docs/plant.md).
+            leaving a peg held by friction to the tilt loops and the wedge probe. Unbounded,
+            it pulled wedged pegs on MuJoCo at 93-150 N until they sprang free
+            (docs/plant.md).
         push_limit: The most the depth loop pushes on the peg in a clearance fit's bore [N]
             (past ``entry_depth``; 0: no bound): above it the depth backs off to it, unless a
             tilt row's slope is the coupling's (a part held all round, which can need more to
             slide). A peg free in its bore slides in with little; pushed harder it presses a
-            jam tighter. Off by default: with ``bore_gain`` 2 and ``pull_limit`` 20, 20 N cut
-            the model's F_z p99 at 1 kHz from 40 N to 28 N (docs/plant.md).
+            jam tighter. 20 N cuts the model's F_z p99 at 1 kHz from 40 N to 28 N and, at
+            100 Hz on MuJoCo, the jams pushed into the wrench guard. A pair the law believes a
+            clearance fit that its tolerances make an interference fit needs more to go in, is
+            not told from a jam, and stops short: set 0 for such parts (docs/plant.md).
         axial_stiffness: The stiffness along the peg's axis of what holds it (arm, F/T sensor,
             gripper) [N/m] (0: rigid, the default). The depth the law reads is the arm's; a
             push F_z compresses the grip by F_z / k, so the arm goes that much deeper to put
@@ -115,14 +116,14 @@ class RobustParams:
             already slower than designed (at a quarter, 370 of docs/integration.md's 1000 parts
             at 100 Hz ended pressed against the wall by over 0.5 N; 171 at the full one).
         bore_gain: The tilt loops' crossover in a clearance fit's bore (past ``entry_depth``,
-            before the depth), as a multiple of ω_c (1: off, the default). A peg in two-point
+            before the depth), as a multiple of ω_c (1: off). A peg in two-point
             contact there goes in only as fast as the tilt loops turn it upright (at depth l
             its tilt is at most 2c/l), at ω_c over the stiffness of the side it presses while
             the side it turns toward has none: on MuJoCo a peg in a 44 µm bore crept in at
             0.15 mm/s. 2 keeps 24-34° of phase margin where the estimate is exact
             (:func:`~fbcc_ros.core.control.loop_design.loop_margins`). A part held all round,
             whose coupling sets the tilt row's slope, turns at ω_c / bore_gain there instead
-            (robust.py, coupled tilt row). Not the default yet (docs/plant.md).
+            (robust.py, coupled tilt row). docs/plant.md measures it.
         coupling_limit: How much of a plane's identified coupling the law inverts:
             |J01 J10| <= coupling_limit J00 J11 (0: the rows alone, as FBCC's A(l)).
         plane_gate: A plane whose two rows are both inside their dead band holds (nothing to
@@ -203,8 +204,8 @@ class RobustParams:
     depth_filter_frequency: float = 400.0
     depth_lead: float = 0.01
     fz_back_off: float = 250.0
-    pull_limit: float = 0.0
-    push_limit: float = 0.0
+    pull_limit: float = 20.0
+    push_limit: float = 20.0
     axial_stiffness: float = 0.0
     guard_growth: float = 0.9
     guard_cycles: int = 8
@@ -214,7 +215,7 @@ class RobustParams:
     guard_hold: float = 0.05
     settle_force: float = 0.25
     settle_gain: float = 0.25
-    bore_gain: float = 1.0
+    bore_gain: float = 2.0
     coupling_limit: float = 0.0
     plane_gate: bool = True
     offset_resolution: float = 1e-6

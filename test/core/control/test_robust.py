@@ -340,10 +340,11 @@ _CHANGED: dict[str, tuple[object, dict[str, object]]] = {
     "guard_backoff": (2.0, {"guard_cycles": 2, "guard_amplitude": 10.0}),
     "guard_hold": (0.2, {"guard_cycles": 2, "guard_amplitude": 10.0}),
     "fz_back_off": (5.0, {}),  # below the run's peak Fz (9.3 N)
-    "F_ext_limit": (15.0, {"fz_back_off": 10.0, "wedge_force": 10.0}),
+    "F_ext_limit": (15.0, {"fz_back_off": 10.0, "wedge_force": 10.0, "pull_limit": 10.0,
+                           "push_limit": 10.0}),
     "coupling_limit": (0.5, {}),
-    "bore_gain": (2.0, {}),  # 1 by default: off
-    "push_limit": (5.0, {}),  # 0 by default: off; below the run's peak Fz (9.3 N)
+    "bore_gain": (1.0, {}),  # off
+    "push_limit": (5.0, {}),  # below the run's peak Fz (9.3 N)
     "plane_gate": (False, {}),
     "friction_max": (0.0, {}),  # off: the lever keeps the scenario's μ
     # at 1 kHz and 5 mm/s the default step is the insertion's own: a smaller one acts
@@ -355,7 +356,9 @@ _CHANGED: dict[str, tuple[object, dict[str, object]]] = {
 #: Parameters that act only when the commands take effect late (the delayed plant).
 _DELAYED = {"depth_lead": 1e-4, "lateral_lead": 1.0, "tilt_lead": 1e-4}
 #: Parameters that act only once the depth is reached (a longer run).
-_AT_DEPTH = {"settle_force": 0.0, "settle_gain": 1.0}
+#: (On this run the rows stay inside the default settle band at the depth: the gain acts once
+#: the band is narrower.)
+_AT_DEPTH = {"settle_force": (0.0, {}), "settle_gain": (1.0, {"settle_force": 0.1})}
 
 
 def _commands(params: RobustParams, duration: float = 1.5) -> np.ndarray:
@@ -386,8 +389,10 @@ def test_every_robust_parameter_changes_the_commands(name: str) -> None:
         assert not np.array_equal(runs[0][4], runs[1][4]), name
         return
     if name in _AT_DEPTH:
-        changed = dataclasses.replace(RobustParams(), **{name: _AT_DEPTH[name]})
-        assert not np.array_equal(_commands(RobustParams(), 4.0), _commands(changed, 4.0)), name
+        value, needs = _AT_DEPTH[name]
+        base = RobustParams(**needs)  # type: ignore[arg-type]
+        changed = dataclasses.replace(base, **{name: value})
+        assert not np.array_equal(_commands(base, 4.0), _commands(changed, 4.0)), name
         return
     value, needs = _CHANGED[name] if name in _CHANGED else (0.5 * default, {})
     base = RobustParams(**needs)  # type: ignore[arg-type]
@@ -420,10 +425,12 @@ def test_the_tilt_rows_wait_until_the_peg_is_in() -> None:
     assert at_once["tilt_misadjustment"] > 3.0 * held["tilt_misadjustment"], (held, at_once)
 
 
-def _tight_stiff_pairs(seed: int, params: dict[str, float]) -> Any:
+def _tight_stiff_pairs(seed: int, params: dict[str, float], *, part: int | None = None,
+                       copies: int = 1) -> Any:  # fmt: skip
     """32 stiff pairs (20-100 GPa, μ 0.1-0.5) within 0.2-0.5 µm of line-to-line, offset by
     50-100 µm and tilted by 0.3-2° in both planes, held rigidly, for a law that believes the
-    10 µm pair: their outcome under the robust law with ``params``."""
+    10 µm pair: their outcome under the robust law with ``params`` (or, with ``part``, that
+    one pair's, ``copies`` times over draws of the sensor noise)."""
     sc = validate({"geometry": {"hole_radius": 5.05e-3, "peg_radius": 5.04e-3,
                                 "hole_depth": 0.01, "base_thickness": 0.005, "friction": 0.3,
                                 "stiffness": 1.84e8},
@@ -439,27 +446,54 @@ def _tight_stiff_pairs(seed: int, params: dict[str, float]) -> Any:
     initial = np.zeros((n, 5))
     initial[:, :2] = sign[:, :2] * rng.uniform(50e-6, 100e-6, (n, 2))
     initial[:, 3:] = sign[:, 2:] * rng.uniform(0.005, 0.035, (n, 2))
+    if part is not None:
+        parts, initial = [parts[part]] * copies, np.repeat(initial[part : part + 1], copies, 0)
     outcome, _ = simulate(sc, "fbcc", initial=initial, geometries=parts, record=False)
     return outcome
+
+
+#: The pair of the draw of seed 0 that can stick at the entry (89 GPa, μ 0.49, 0.20 µm from
+#: line-to-line, 0.1 mm / 1.8° off): among the 32, the second roughest and second tightest.
+_STICKS_AT_THE_ENTRY = 30
 
 
 def test_tight_stiff_pairs_are_not_wedged_by_the_tilt_rows() -> None:
     """In tight stiff pairs the tilt rows' own slope is noise and a tilt step moves the offset
     row 1e4 N/rad, so at the floor's gain the tilt rows wedged 1-4 of every 32 such parts into
-    the force limit. Scaled by the coupling, none reaches it."""
+    the force limit. Scaled by the coupling, none reaches it, and none stops in the bore: every
+    part assembles but one, stuck at the entry (next test)."""
     outcome = _tight_stiff_pairs(0, {})
     assert not outcome.force_limited.any(), np.flatnonzero(outcome.force_limited)
-    assert outcome.success.all(), np.flatnonzero(~outcome.success)
+    short = np.flatnonzero(~outcome.success)
+    assert set(short) <= {_STICKS_AT_THE_ENTRY}, short
+    for i in short:
+        assert outcome.summary(int(i))["final_features"]["l"] < RobustParams().entry_depth
+
+
+def test_the_tight_pair_that_can_stick_at_the_entry_is_not_forced() -> None:
+    """The one pair of the draw above that does not always assemble, over 48 draws of the
+    sensor noise: none reaches the force limit, and it fails no more often than with the
+    bore's gain and both bounds off (bore_gain 1, no pull or push bound), though not the same
+    way. Off, 17 stick at the entry (before entry_depth, where the bore's gain and push bound
+    do not act); at the defaults 12 do, 2 are still going in at the end and one is stopped
+    by the wrench guard 9.6 mm in (273 N over its 270 N): a part held all round, which no
+    bound may stop from being pushed."""
+    failed = {}
+    for name, params in (("defaults", {}),
+                         ("off", {"bore_gain": 1.0, "pull_limit": 0.0, "push_limit": 0.0})):
+        outcome = _tight_stiff_pairs(0, params, part=_STICKS_AT_THE_ENTRY, copies=48)
+        assert not outcome.force_limited.any(), (name, np.flatnonzero(outcome.force_limited))
+        failed[name] = int((~outcome.success).sum())
+    assert failed["defaults"] <= failed["off"] < 48 // 2, failed
 
 
 def test_in_the_bore_a_part_held_all_round_turns_slower_not_faster() -> None:
-    """At bore_gain 2 the tilt loops of a clearance fit's bore run at twice ω_c, but where the
-    coupling sets a tilt row's slope (a part held all round) its floor is bore_gain² times the
-    coupling's, so such a part turns at half ω_c there. With the floor at the coupling's alone
-    4 of these 32 parts stopped at the wrench guard's 270 N or ended short; at bore_gain times
-    it, 2. (Of the 32 of the test above one ends short at bore_gain 2: its slowest part, which
-    takes 3.2 s at 1.)"""
-    outcome = _tight_stiff_pairs(2, {"bore_gain": 2.0})
+    """At bore_gain 2 (the default) the tilt loops of a clearance fit's bore run at twice ω_c,
+    but where the coupling sets a tilt row's slope (a part held all round) its floor is
+    bore_gain² times the coupling's, so such a part turns at half ω_c there. With the floor at
+    the coupling's alone 4 of these 32 parts stopped at the wrench guard's 270 N or ended
+    short; at bore_gain times it, 2."""
+    outcome = _tight_stiff_pairs(2, {})
     assert not outcome.wrench_guard_tripped.any(), np.flatnonzero(outcome.wrench_guard_tripped)
     assert outcome.success.all(), np.flatnonzero(~outcome.success)
 
