@@ -106,7 +106,8 @@ the dither notches. The command never leads the measured depth by more than
 ``v * depth_lead``, so a hold takes effect within a sample. An axial force above
 ``fz_back_off`` backs off; backing out pulls the peg by at most ``pull_limit`` if set, and in
 a clearance fit's bore the loop pushes by at most ``push_limit`` if set, unless a tilt row's
-slope is the coupling's (a part held all round; under Coupled tilt row).
+slope is the coupling's (a part held all round; under Coupled tilt row) or the load is a press
+fit's (its bound then follows the press: :mod:`~fbcc_ros.core.control.press_fit`).
 Through the entry (the first ``entry_depth``: a chamfer and the rim) it steps at most
 ``entry_step`` between two samples, whatever the rate (a late sample does not step further):
 the first contact comes within a step, before the law can see it.
@@ -135,6 +136,7 @@ simulator's batch and the controller's single row alike
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Any, ClassVar
 
 import numpy as np
@@ -144,6 +146,7 @@ from fbcc_ros.core.arrays import FloatArray
 from fbcc_ros.core.contact.model import PegHole, as_rows
 from fbcc_ros.core.control import guard as guard_mod
 from fbcc_ros.core.control import identification as ident
+from fbcc_ros.core.control import press_fit
 from fbcc_ros.core.control import robust_kernel as rk
 from fbcc_ros.core.control import robust_vector as rv
 from fbcc_ros.core.control.axis_insertion import AxisInsertion
@@ -223,6 +226,8 @@ class RobustFbcc:
         self._main[:, rk.C_LCMD] = rows[:, 2]
         self._main[:, rk.C_MU] = self.nominal.friction
         self._main[:, rk.C_BACKOFF : rk.C_BACKOFF + 4] = 1.0
+        # no climb of F_z seen yet: a load already on at the start is no press fit's
+        self._main[:, rk.C_PRESS + press_fit.S_FROM_F] = math.inf
         self._ident = np.zeros((n, 2, ident.N_STATE))
         floor = np.zeros(4)
         ident.floor_row(0.0, self.params.stiffness_min, floor)

@@ -15,7 +15,7 @@ from fbcc_ros.core.contact.segmentation import direct_row, lever_at, tilt_terms
 from fbcc_ros.core.control import guard as guard_mod
 from fbcc_ros.core.control import hole_search as search
 from fbcc_ros.core.control import identification as ident
-from fbcc_ros.core.control import wedge
+from fbcc_ros.core.control import press_fit, wedge
 from fbcc_ros.core.filters import notch_step, second_order_row, second_order_step
 
 #: Per row j (dx, dy, theta_x, theta_y): the other row of its plane (identification.PLANES).
@@ -49,7 +49,8 @@ C_SEARCHED = C_LEVER + ident.N_LEVER  # the hole search's travel so far [m] (hol
 C_WEDGE = C_SEARCHED + 1  # a wedge's state (wedge.N_STATE columns)
 C_SINK = C_WEDGE + wedge.N_STATE  # how far the grip held the peg above the arm [m] (P_SINK)
 C_PEG = C_SINK + 1  # the deepest the peg was believed past the depth (arm's depth - C_SINK) [m]
-N_MAIN = C_PEG + 1
+C_PRESS = C_PEG + 1  # the push bound's press line (press_fit.N_STATE columns)
+N_MAIN = C_PRESS + press_fit.N_STATE
 
 # Indices into the parameter vector of the kernel.
 (P_WC, P_DB_X, P_DB_Y, P_DB_TX, P_DB_TY, P_FORGET, P_KMIN, P_RELEASE, P_DITH_F,
@@ -309,8 +310,11 @@ def robust_rows(
             rate = min(max(rate, -step, min(prm[P_DEPTH] - m[C_LCMD], 0.0) / dt), step)
         if searching:
             rate = min(rate, search.force_rate(w[i, 2], prm[P_SEARCH_FORCE], prm[P_WL]))
-        if prm[P_PUSH] > 0.0 and depth >= prm[P_ENTRY_DEPTH] and not held:
-            rate = min(rate, search.force_rate(w[i, 2], prm[P_PUSH], prm[P_WL]))  # push_limit
+        if prm[P_PUSH] > 0.0:  # push_limit, or a press fit's line (press_fit)
+            push = press_fit.bound(m[C_PRESS : C_PRESS + press_fit.N_STATE], depth, w[i, 2],
+                                   prm[P_PUSH], dt)  # fmt: skip
+            if depth >= prm[P_ENTRY_DEPTH] and not held:
+                rate = min(rate, search.force_rate(w[i, 2], push, prm[P_WL]))
         if stuck:  # a light push while the probe turns the peg (wedge)
             rate = min(max(search.hold_rate(w[i, 2], prm[P_SEARCH_FORCE], prm[P_WL]), -v), v)
         if m[C_T] < m[C_HOLD]:

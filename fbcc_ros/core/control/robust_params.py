@@ -80,8 +80,9 @@ class RobustParams:
             slide). A peg free in its bore slides in with little; pushed harder it presses a
             jam tighter. 20 N cuts the model's F_z p99 at 1 kHz from 40 N to 28 N and, at
             100 Hz on MuJoCo, the jams pushed into the wrench guard. A pair the law believes a
-            clearance fit that its tolerances make an interference fit needs more to go in, is
-            not told from a jam, and stops short: set 0 for such parts (docs/plant.md).
+            clearance fit that its tolerances make an interference fit needs more: where the
+            peg stops at the bound after a climb of F_z with the depth, held all round, the
+            bound follows that press's line (:mod:`~fbcc_ros.core.control.press_fit`).
         axial_stiffness: The stiffness along the peg's axis of what holds it (arm, F/T sensor,
             gripper) [N/m] (0: rigid, the default). The depth the law reads is the arm's; a
             push F_z compresses the grip by F_z / k, so the arm goes that much deeper to put

@@ -784,11 +784,12 @@ def test_backing_out_pulls_the_peg_by_at_most_pull_limit() -> None:
 def test_in_a_clearance_fits_bore_the_peg_is_pushed_by_at_most_push_limit() -> None:
     """Quiet rows let the depth loop push on; past the entry, once F_z is above push_limit, it
     backs off to it instead (a peg that does not go in is pressed tighter by more): the depth
-    falls while the push lasts (15 N, under wedge_force), where with no bound (0, the default)
-    it runs on. An interference fit, which needs its push-in force, is never bounded."""
+    falls while the push lasts (15 N, under wedge_force), where with no bound (0) it runs on.
+    The load comes at once (a jam's), so the bound does not follow it as a press fit's
+    (press_fit). An interference fit, which needs its push-in force, is never bounded."""
     for fit in ("clearance", "interference"):
         ends = []
-        for push in (10.0, 0.0):  # 0: no bound (the default)
+        for push in (10.0, 0.0):  # 0: no bound
             law = RobustFbcc(_pair(fit, 1e9), RobustParams(push_limit=push))
             x = np.zeros(5)
             x[2] = 0.003
