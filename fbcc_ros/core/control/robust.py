@@ -136,7 +136,6 @@ simulator's batch and the controller's single row alike
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import Any, ClassVar
 
 import numpy as np
@@ -226,8 +225,7 @@ class RobustFbcc:
         self._main[:, rk.C_LCMD] = rows[:, 2]
         self._main[:, rk.C_MU] = self.nominal.friction
         self._main[:, rk.C_BACKOFF : rk.C_BACKOFF + 4] = 1.0
-        # no climb of F_z seen yet: a load already on at the start is no press fit's
-        self._main[:, rk.C_PRESS + press_fit.S_FROM_F] = math.inf
+        press_fit.reset(self._main[:, rk.C_PRESS : rk.C_PRESS + press_fit.N_STATE])
         self._ident = np.zeros((n, 2, ident.N_STATE))
         floor = np.zeros(4)
         ident.floor_row(0.0, self.params.stiffness_min, floor)
