@@ -59,7 +59,7 @@ from fbcc_ros.core.sim.montecarlo import (
 )
 from fbcc_ros.core.sim.plants.spec import PLANTS
 from fbcc_ros.core.sim.simulation import Outcome
-from fbcc_ros.core.sim.study_goals import failures, goals, missed_goals, time_goal
+from fbcc_ros.core.sim.study_goals import failures, goals, missed_goals, targets
 from fbcc_ros.studies import trials_csv
 
 
@@ -274,11 +274,12 @@ def main(argv: list[str] | None = None) -> int:
     elapsed = time.perf_counter() - start
     summary: dict[str, Any] = {}
     missed: dict[str, list[list[str]]] = {}
-    deadline = time_goal(sc.insertion, sc.rate_hz)
+    target = targets(sc)
+    deadline = target.deadline
     for law, o in results.items():
         summary[law] = summarise(o)
         missed[law] = missed_goals(o, deadline)
-        summary[law]["goals"] = goals(o, trials, missed[law], deadline)
+        summary[law]["goals"] = goals(o, trials, missed[law], target)
         summary[law]["failures"] = failures(o, trials, missed[law])
         summary[law]["friction_estimate"] = friction_accuracy(o, trials)
     summary["_run"] = {

@@ -40,7 +40,7 @@ from fbcc_ros.core.control.state_gate import (
 from fbcc_ros.core.sim.scenario import Scenario
 from fbcc_ros.core.sim.simulation import Outcome, simulate
 from fbcc_ros.core.sim.state_study import drawn_insertions
-from fbcc_ros.core.sim.study_goals import time_goal
+from fbcc_ros.core.sim.study_goals import targets
 
 #: The arms of the study, in the order they run.
 ARMS = ("law alone", "gated by the filter", "gated by the truth", "tilts gated by the truth")
@@ -85,7 +85,7 @@ class SignTally:
 
 
 def summary(outcome: Outcome, deadline: float) -> dict[str, Any]:
-    """An arm's figures over its trials; ``deadline`` the time goal [s] (study_goals.time_goal)."""
+    """An arm's figures over its trials; ``deadline`` the time goal [s] (study_goals.targets)."""
     t = outcome.insertion_time
     done = t[np.isfinite(t)]
     return {
@@ -133,7 +133,7 @@ def gate_study(sc: Scenario, unc: Uncertainty, stiffness: float, trials: int, se
                 if arm in sources else None)  # fmt: skip
         outcome, _ = simulate(sc, "fbcc", initial=dev, geometries=parts, seed=seed,
                               record=False, wrap=wrap)  # fmt: skip
-        out[arm] = summary(outcome, time_goal(sc.insertion, sc.rate_hz))
+        out[arm] = summary(outcome, targets(sc).deadline)
         if gates:
             g = gates[0]
             periods = sc.steps * trials
