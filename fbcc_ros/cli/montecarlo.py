@@ -6,7 +6,8 @@
 The scenario gives the nominal geometry, gains, sensor, robot and timing (its ``initial`` is
 replaced by the random deviations). Each trial draws the deviations (default ±0.1 mm, ±2° in both
 planes), the true radii (the spreads of Table II) and, when asked, the material: k log-uniform
-(``--stiffness-gpa``) and mu uniform (``--friction``); see :mod:`fbcc_ros.core.sim.montecarlo`. A
+(``--stiffness-gpa``; on MuJoCo, whose contact ignores k, the contact's time constant,
+``--contact-ms``) and mu uniform (``--friction``); see :mod:`fbcc_ros.core.sim.montecarlo`. A
 part that no controller could push in (quasi-static push-in force above 2/3 of the force limit) is
 drawn again and counted, unless ``--all-parts``. Every law runs the same trials, on all local
 cores by default or on a Dask cluster (``--scheduler``), with identical results for one seed.
@@ -57,7 +58,7 @@ from fbcc_ros.core.sim.montecarlo import (
     run_montecarlo,
     wilson_interval,
 )
-from fbcc_ros.core.sim.plants.spec import PLANTS
+from fbcc_ros.core.sim.plants.spec import MAX_TIMECONST, PLANTS, TIMESTEPS_PER_TIMECONST
 from fbcc_ros.core.sim.simulation import Outcome
 from fbcc_ros.core.sim.study_goals import failures, goals, missed_goals, targets
 from fbcc_ros.studies import trials_csv
@@ -187,6 +188,11 @@ def main(argv: list[str] | None = None) -> int:
                         metavar=("N_PER_M_LO", "N_PER_M_HI", "NM_PER_RAD_LO", "NM_PER_RAD_HI"),
                         help="draw each trial's grip log-uniform in these lateral and angular "
                         "ranges (instead of --holder and the scenario's holder)")
+    parser.add_argument("--contact-ms", type=float, nargs=2, metavar=("LOW", "HIGH"),
+                        help="on MuJoCo, draw each trial's contact time constant (solref) "
+                        "log-uniform in [LOW, HIGH] ms, its impedance's width following: 0.2 the "
+                        "shipped metal-like contact, 1 a plastic-like one (instead of "
+                        "plant.timeconst)")
     parser.add_argument("--holder", type=float, nargs=2, metavar=("N_PER_M", "NM_PER_RAD"),
                         help="hold the peg in a holder of this lateral and angular stiffness "
                         "(overrides the scenario's holder; fbcc_ros/core/sim/holder.py)")
@@ -236,6 +242,14 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"--rate-hz={args.rate_hz:g} is not allowed: expected {low:g} to "
                          f"{high:g} Hz")
         sc = dataclasses.replace(sc, rate_hz=args.rate_hz)
+    contact_ms = None
+    if args.contact_ms is not None:
+        if sc.plant.type != "mujoco":
+            parser.error(f"--contact-ms draws MuJoCo's contact: {args.scenario} runs on the "
+                         f"{sc.plant.type} (add --plant mujoco; the model's is --stiffness-gpa)")
+        least = TIMESTEPS_PER_TIMECONST * sc.plant.timestep * 1e3
+        contact_ms = _range(parser, "--contact-ms", args.contact_ms, least, MAX_TIMECONST * 1e3,
+                            f"ms (at least {TIMESTEPS_PER_TIMECONST} of plant.timestep)")
     grip = args.grip
     if grip is not None:
         if args.holder is not None:
@@ -261,6 +275,7 @@ def main(argv: list[str] | None = None) -> int:
                                                      clearance_um[1] * 1e-6),
         chamfer=None if chamfer_mm is None else (chamfer_mm[0] * 1e-3, chamfer_mm[1] * 1e-3),
         grip=None if grip is None else tuple(grip),
+        contact=None if contact_ms is None else (contact_ms[0] * 1e-3, contact_ms[1] * 1e-3),
         numbers=args.trial or range(args.first, args.first + args.trials),
     )  # fmt: skip
     if args.trial:
@@ -291,7 +306,7 @@ def main(argv: list[str] | None = None) -> int:
         "friction": friction, "clearance_um": clearance_um, "chamfer_mm": chamfer_mm,
         "feasible_force": feasible, "parts_redrawn": trials.redrawn,
         "holder": None if sc.holder is None else [sc.holder.lateral, sc.holder.angular],
-        "grip": grip,
+        "grip": grip, "contact_ms": contact_ms,
         "plant": dataclasses.asdict(sc.plant), "rate_hz": sc.rate_hz,
     }  # fmt: skip
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")

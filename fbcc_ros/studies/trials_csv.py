@@ -1,9 +1,9 @@
 """A Monte Carlo study's ``trials.csv``: written by ``fbcc-montecarlo``, read back by the studies
 that compare studies: a law's rows by trial number, a study run in parts (``--first``) joined
-into one, and the friction bins their tables share. A row per law and trial: its draws (its
-grip ``nan`` where the scenario's held every trial), its outcome's figures, its final features
-and why it ended (``stop_reason``, "" where it ran to its end; files written before it have
-none)."""
+into one, and the friction bins their tables share. A row per law and trial: its draws (its grip
+and MuJoCo contact time constant ``nan`` where the scenario's held for every trial), its
+outcome's figures, its final features and why it ended (``stop_reason``, "" where it ran to its
+end; files written before it have none)."""
 
 from __future__ import annotations
 
@@ -32,10 +32,11 @@ def write_trials(trials: Trials, results: dict[str, Outcome], path: Path) -> Non
         w = csv.writer(f)
         w.writerow(["law", "trial", "dx0", "dy0", "theta_x0", "theta_y0", "hole_radius",
                     "peg_radius", "stiffness", "friction", "chamfer", "grip_lateral",
-                    "grip_angular", "success", "insertion_time",
+                    "grip_angular", "contact_timeconst", "success", "insertion_time",
                     "peak_fz", "peak_force", "residual_force", "residual_moment", "tilt_overshoot",
                     "tilt_misadjustment", "force_limited", "friction_estimate",
                     *(f"final_{n}" for n in FEATURE_NAMES), "stop_reason"])  # fmt: skip
+        tc = trials.timeconsts
         for law, o in results.items():
             for i in range(len(trials)):
                 d, g = trials.initial[i], trials.geometries[i]
@@ -45,6 +46,7 @@ def write_trials(trials: Trials, results: dict[str, Outcome], path: Path) -> Non
                             f"{g.hole_radius:.7g}", f"{g.peg_radius:.7g}",
                             f"{g.stiffness:.4g}", f"{g.friction:.4g}", f"{g.chamfer:.4g}",
                             *((f"{k.lateral:.4g}", f"{k.angular:.4g}") if k else ("nan", "nan")),
+                            "nan" if tc is None else f"{tc[i]:.4g}",
                             int(o.success[i]),
                             f"{o.insertion_time[i]:.4g}", f"{o.peak_fz[i]:.4g}",
                             f"{o.peak_force[i]:.4g}", f"{o.residual_force[i]:.4g}",

@@ -95,6 +95,43 @@ def test_montecarlo_runs_its_trials_on_the_plant_named(tmp_path: Path) -> None:
     assert (model / "trials.csv").read_text() != rows[0]  # the plant is not the model
 
 
+def test_montecarlo_draws_each_trials_mujoco_contact(tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    """``--contact-ms``: each MuJoCo trial's contact time constant is its own draw, listed in
+    trials.csv, replayed with the trial, and acting: the same trials at 0.2 ms and at 1 ms press
+    differently. The model has no such contact, and a time constant under four timesteps is
+    refused."""
+    scenario = tmp_path / "short.yaml"
+    scenario.write_text("geometry: {hole_radius: 0.00505, peg_radius: 0.00504, hole_depth: 0.01,"
+                        " base_thickness: 0.005, friction: 0.3, stiffness: 1.84e+8}\n"
+                        "initial: {dx: 0, dy: 0, theta_x: 0, theta_y: 0}\n"
+                        "insertion: {depth: 0.001, speed: 0.005}\n"
+                        "holder: {lateral: 5.0e+4, angular: 30}\nduration: 0.3\n")
+    study = [str(scenario), "--trials", "3", "--plant", "mujoco", "--workers", "1"]
+    rows = {}
+    for name, low, high in (("drawn", "0.2", "1"), ("metal", "0.2", "0.2"), ("soft", "1", "1")):
+        out = tmp_path / name
+        assert montecarlo.main([*study, "--out", str(out), "--contact-ms", low, high]) == 0
+        rows[name] = list(csv.DictReader((out / "trials.csv").open()))
+    drawn = [float(r["contact_timeconst"]) for r in rows["drawn"]]
+    assert all(2e-4 <= t <= 1e-3 for t in drawn) and len(set(drawn)) == 3
+    assert [float(r["contact_timeconst"]) for r in rows["soft"]] == [1e-3] * 3
+    # the other draws are the same whatever the contact; the contact's force is not
+    assert [r["dx0"] for r in rows["metal"]] == [r["dx0"] for r in rows["soft"]]
+    assert [r["peak_force"] for r in rows["metal"]] != [r["peak_force"] for r in rows["soft"]]
+    assert montecarlo.main([*study, "--out", str(tmp_path / "again"), "--contact-ms", "0.2",
+                            "1", "--trial", "1"]) == 0  # fmt: skip
+    again = json.loads((tmp_path / "again" / "trial_1" / "summary.json").read_text())
+    assert again["peak_force"] == pytest.approx(float(rows["drawn"][1]["peak_force"]), rel=1e-3)
+    for flags, why in ((["--plant", "model"], "--contact-ms draws MuJoCo's contact"),
+                       (["--plant", "mujoco"], "--contact-ms 0.1 1 is not allowed")):
+        with pytest.raises(SystemExit) as exc:
+            montecarlo.main([str(scenario), "--trials", "2", *flags, "--out",
+                             str(tmp_path / "bad"), "--contact-ms", "0.1" if "mujoco" in flags
+                             else "0.2", "1"])  # fmt: skip
+        assert exc.value.code == 2 and why in capsys.readouterr().err
+
+
 def test_sim_refuses_a_bad_scenario_before_simulating(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -14,7 +14,11 @@ Each trial draws
   draw is taken after the others, so a study without it draws the same parts as before;
 * optionally the grip: its lateral and angular stiffness log-uniform in ``grip`` = (lateral
   low, lateral high, angular low, angular high) [N/m, N·m/rad] (:class:`~fbcc_ros.core.sim.
-  holder.Holder`, axial as shipped), in place of the scenario's holder; drawn last.
+  holder.Holder`, axial as shipped), in place of the scenario's holder; drawn after the others;
+* optionally, on MuJoCo, the contact's stiffness: ``solref``'s time constant log-uniform in
+  ``contact`` = (low, high) [s], in place of the scenario's ``plant.timeconst``, the impedance's
+  width following it (:func:`~fbcc_ros.core.sim.plants.mujoco.impedance_width`): 0.2 ms is the
+  shipped metal-like contact, 1 ms a plastic-like one; drawn last.
 
 A part whose quasi-static push-in force (:meth:`PegHole.push_in_force` at L) exceeds
 ``feasible_force`` cannot be inserted by any controller within the force limit; when
@@ -62,7 +66,8 @@ BATCH = {"model": 128, "mujoco": 1}
 class Trials:
     """The random part of N trials: deviations (N, 5), true geometries, the study's seed and
     each trial's number in the study, how many parts were drawn again because they could
-    not be inserted (see the module doc), and each trial's grip where it was drawn."""
+    not be inserted (see the module doc), and each trial's grip and MuJoCo contact time
+    constant [s] where they were drawn."""
 
     initial: FloatArray
     geometries: tuple[PegHole, ...]
@@ -70,13 +75,24 @@ class Trials:
     numbers: tuple[int, ...]
     redrawn: int = 0
     holders: tuple[Holder, ...] | None = None
+    timeconsts: tuple[float, ...] | None = None
 
     def __len__(self) -> int:
         return len(self.initial)
 
     def part(self, s: slice) -> Trials:
         return Trials(self.initial[s], self.geometries[s], self.seed, self.numbers[s],
-                      holders=None if self.holders is None else self.holders[s])
+                      holders=None if self.holders is None else self.holders[s],
+                      timeconsts=None if self.timeconsts is None else self.timeconsts[s])
+
+    def scenario(self, sc: Scenario) -> Scenario:
+        """``sc`` with this one trial's MuJoCo contact where it was drawn (``sc`` where not)."""
+        if self.timeconsts is None:
+            return sc
+        if len(self) != 1:
+            raise ConfigError("trials", len(self), "1: a drawn contact is a trial's own")
+        return dataclasses.replace(sc, plant=dataclasses.replace(sc.plant,
+                                                                 timeconst=self.timeconsts[0]))
 
     def noise_seeds(self, scenario_seed: int) -> list[np.random.SeedSequence]:
         """Each trial's noise seed (module doc), a stream apart from every draw's: its spawn
@@ -98,6 +114,7 @@ def draw_trials(
     clearance: tuple[float, float] | None = None,
     chamfer: tuple[float, float] | None = None,
     grip: tuple[float, float, float, float] | None = None,
+    contact: tuple[float, float] | None = None,
     feasible_force: float | None = None,
     numbers: Sequence[int] | None = None,
 ) -> Trials:
@@ -113,6 +130,8 @@ def draw_trials(
         chamfer: (low, high) of a uniform chamfer width [m]; None keeps the nominal's.
         grip: (lateral low, lateral high, angular low, angular high) of a log-uniform grip
             [N/m, N·m/rad]; None keeps the scenario's holder.
+        contact: (low, high) of a log-uniform MuJoCo contact time constant [s]; None keeps
+            the scenario's ``plant.timeconst``.
         feasible_force: Largest quasi-static push-in force at L [N] of a part kept; None keeps
             every part.
     """
@@ -128,7 +147,8 @@ def draw_trials(
     if chamfer is not None and not nominal.rim:
         raise ConfigError("chamfer", list(chamfer), "a pair with its rim (geometry.rim: true)")
     for name, bounds, zero in (("stiffness", stiffness, False), ("friction", friction, False),
-                               ("clearance", clearance, False), ("chamfer", chamfer, True)):
+                               ("clearance", clearance, False), ("chamfer", chamfer, True),
+                               ("contact", contact, False)):
         if bounds is not None and not ((bounds[0] >= 0 if zero else bounds[0] > 0)
                                        and bounds[0] <= bounds[1]):
             allowed = "0 <= low <= high" if zero else "0 < low <= high"
@@ -139,6 +159,7 @@ def draw_trials(
     initial = np.zeros((len(numbers), 5))
     geometries: list[PegHole] = []
     holders: list[Holder] = []
+    timeconsts: list[float] = []
     redrawn = 0
     for row, i in enumerate(numbers):
         rng = np.random.default_rng([seed, i])  # the trial's own draw (module doc)
@@ -170,8 +191,11 @@ def draw_trials(
             lateral, angular = (10.0 ** rng.uniform(math.log10(lo), math.log10(hi))
                                 for lo, hi in (grip[:2], grip[2:]))  # fmt: skip
             holders.append(Holder(float(lateral), float(angular)))
+        if contact is not None:
+            timeconsts.append(float(10.0 ** rng.uniform(*np.log10(contact))))
     return Trials(initial, tuple(geometries), seed, tuple(numbers), redrawn,
-                  tuple(holders) if grip is not None else None)
+                  tuple(holders) if grip is not None else None,
+                  tuple(timeconsts) if contact is not None else None)
 
 
 def _trial_number(value: Any) -> int:
@@ -195,7 +219,11 @@ def wilson_interval(successes: int, n: int, z: float = 1.959964) -> tuple[float,
 
 
 def _run_part(sc: Scenario, law: str, trials: Trials) -> Outcome:
-    outcome, _ = simulate(sc, law, initial=trials.initial, geometries=trials.geometries,
+    if trials.timeconsts is not None and len(trials) > 1:  # a MuJoCo scene per contact
+        return concat([_run_part(sc, law, trials.part(slice(i, i + 1)))
+                       for i in range(len(trials))])  # fmt: skip
+    outcome, _ = simulate(trials.scenario(sc), law, initial=trials.initial,
+                          geometries=trials.geometries,
                           record=False, noise_seeds=trials.noise_seeds(sc.seed),
                           holders=trials.holders)  # fmt: skip
     return outcome
@@ -209,6 +237,7 @@ def replay_trial(sc: Scenario, law: str, trials: Trials, number: int) -> SimResu
         raise ConfigError("trial", number, f"a trial drawn: {list(trials.numbers)[:10]}...")
     row = trials.numbers.index(number)
     one = trials.part(slice(row, row + 1))
+    sc = one.scenario(sc)
     outcome, traj = simulate(sc, law, initial=one.initial, geometries=one.geometries,
                              noise_seeds=one.noise_seeds(sc.seed),
                              holders=one.holders)  # fmt: skip

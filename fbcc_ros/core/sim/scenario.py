@@ -29,7 +29,8 @@ holder         the compliance of arm, sensor and gripper at the grip point (abse
                lateral [N/m], angular [N·m/rad] (fbcc_ros/core/sim/holder.py has typical values)
 plant          type: model (eq. 5-13, the default) | mujoco (fbcc_ros/core/sim/plants/);
                for mujoco: facets of the bore (128), face_width [m] (0.005, the top face
-               around the hole), timestep [s] (5e-5), timeconst [s] (2e-4)
+               around the hole), timestep [s] (5e-5), timeconst [s] (2e-4, metal-like;
+               1e-3 plastic-like: the contact's impedance width follows it)
 tolerance      success tolerances: offset [m] (2e-5), tilt [rad] (0.0035), depth [m] (1e-5),
                force [N] (1.0): a plane whose lateral force is below it counts as settled
 rate_hz        control and simulation rate [Hz] (1000)

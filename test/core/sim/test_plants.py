@@ -5,6 +5,7 @@ where the model has no top face, MuJoCo shows it. The scenario's ``plant`` key i
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -13,7 +14,8 @@ from fbcc_ros.core.control.robust_params import RobustParams
 from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim import scenario
 from fbcc_ros.core.sim.plants.model import ModelContact
-from fbcc_ros.core.sim.plants.mujoco import MujocoContact
+from fbcc_ros.core.sim.plants.mujoco import MujocoContact, impedance_width, scene_of
+from fbcc_ros.core.sim.plants.mujoco_scene import Contact
 from fbcc_ros.core.sim.plants.plant import LaggingRobot
 from fbcc_ros.core.sim.simulation import scenario_plant, simulate
 
@@ -140,3 +142,21 @@ def test_a_chamfered_insertion_settles_in_the_timestep_and_the_facets() -> None:
         for name in ("dx", "dy", "l"):
             assert other["final_features"][name] == pytest.approx(
                 first["final_features"][name], abs=2e-6)
+
+
+@pytest.mark.parametrize(("timeconst", "width"), [(2e-4, 1e-5), (1e-3, 1e-4)])
+def test_one_time_constant_names_a_contact_from_metal_like_to_plastic_like(
+        timeconst: float, width: float) -> None:  # fmt: skip
+    """A scenario's plant.timeconst sets the impedance's width too: the shipped metal-like
+    contact at 0.2 ms (the scene's default Contact), the credibility study's plastic-like one at
+    1 ms, and between them on the line through both."""
+    sc = scenario.load(Path(__file__).resolve().parents[3] / "config" / "scenarios"
+                       / "mujoco_clearance.yaml")
+    sc = dataclasses.replace(sc, plant=dataclasses.replace(sc.plant, timeconst=timeconst))
+    _, contact = scene_of(sc)
+    assert contact.timeconst == timeconst
+    assert contact.solimp[2] == pytest.approx(width, rel=1e-12)
+    assert contact.solimp[:2] + contact.solimp[3:] == Contact.solimp[:2] + Contact.solimp[3:]
+    if timeconst == 2e-4:
+        assert contact.solimp == Contact().solimp
+    assert 1e-5 < impedance_width(4e-4) < impedance_width(6e-4) < 1e-4

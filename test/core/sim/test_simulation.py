@@ -257,6 +257,19 @@ def test_drawn_grips_hold_each_trial_as_its_own_holder_would() -> None:
         assert batch.peak_force[i] == pytest.approx(alone.peak_force[0], rel=1e-9)
     with pytest.raises(ConfigError, match="grip"):
         draw_trials(sc.geometry, 3, seed=4, grip=(1e6, 2e4, 10.0, 3e3))
+    # MuJoCo's contact is drawn last: every other draw as without it, each trial its own scene
+    soft = draw_trials(sc.geometry, 400, seed=4, friction=(0.1, 0.5), grip=(2e4, 1e6, 10.0, 3e3),
+                       contact=(2e-4, 1e-3))
+    np.testing.assert_array_equal(soft.initial[:3], t.initial)
+    assert soft.geometries[:3] == t.geometries and soft.holders[:3] == t.holders
+    assert soft.timeconsts is not None and all(2e-4 <= c <= 1e-3 for c in soft.timeconsts)
+    assert 0.4 < np.mean([c < math.sqrt(2e-4 * 1e-3) for c in soft.timeconsts]) < 0.6
+    one = soft.part(slice(5, 6))
+    assert one.scenario(sc).plant.timeconst == soft.timeconsts[5]
+    with pytest.raises(ConfigError, match="a drawn contact is a trial's own"):
+        soft.part(slice(0, 2)).scenario(sc)
+    with pytest.raises(ConfigError, match="contact"):
+        draw_trials(sc.geometry, 3, seed=4, contact=(1e-3, 2e-4))
 
 
 def test_push_in_force_is_the_models_centred_axial_force() -> None:

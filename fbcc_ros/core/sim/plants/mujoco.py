@@ -11,6 +11,7 @@ Each trial is its own scene, stepped in turn (a trial costs what one scene costs
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -23,6 +24,19 @@ from fbcc_ros.core.errors import ConfigError
 from fbcc_ros.core.sim.holder import Holder
 from fbcc_ros.core.sim.plants.mujoco_scene import Contact, MujocoPegHole, Part
 from fbcc_ros.core.sim.plants.spec import PlantSpec
+
+#: The credibility study's two contacts (docs/plant.md): (solref's time constant [s], solimp's
+#: width [m]) of the metal-like contact the scene ships, and of a plastic-like one.
+METAL_LIKE = (2.0e-4, 1.0e-5)
+PLASTIC_LIKE = (1.0e-3, 1.0e-4)
+
+
+def impedance_width(timeconst: float) -> float:
+    """solimp's width [m] of a contact whose time constant is ``timeconst`` [s]: on the line
+    through the metal-like and the plastic-like contacts on log scales (10 µm at 0.2 ms, 0.1 mm
+    at 1 ms), so that one time constant names a contact from metal-like to plastic-like."""
+    (t0, w0), (t1, w1) = METAL_LIKE, PLASTIC_LIKE
+    return w0 * (timeconst / t0) ** (math.log(w1 / w0) / math.log(t1 / t0))
 
 
 class MujocoContact:
@@ -71,8 +85,11 @@ class MujocoContact:
 
 def scene_of(sc: Any) -> tuple[Part, Contact]:
     """The bore and MuJoCo's contact of a scenario (:class:`~fbcc_ros.core.sim.scenario.
-    Scenario`): its ``plant`` section's facets, face width, timestep and contact time constant
-    (the chamfer is each true pair's, ``geometry.chamfer`` or a trial's draw)."""
+    Scenario`): its ``plant`` section's facets, face width, timestep and contact time constant,
+    the impedance's width following it (:func:`impedance_width`); the chamfer is each true
+    pair's, ``geometry.chamfer`` or a trial's draw."""
     spec: PlantSpec = sc.plant
+    d0, d1, _, middle, power = Contact.solimp
+    solimp = (d0, d1, impedance_width(spec.timeconst), middle, power)
     return (Part(facets=spec.facets, face_width=spec.face_width),
-            Contact(timeconst=spec.timeconst, timestep=spec.timestep))  # fmt: skip
+            Contact(timeconst=spec.timeconst, timestep=spec.timestep, solimp=solimp))

@@ -20,6 +20,8 @@ MAX_TIMESTEP = 1.0e-4
 TIMESTEPS_PER_TIMECONST = 4
 #: The default timestep [s]: four in the metal-like contact's 0.2 ms (docs/plant.md).
 TIMESTEP = 5.0e-5
+#: The softest contact a scenario may ask for: solref's time constant [s].
+MAX_TIMECONST = 0.01
 
 
 @dataclasses.dataclass(frozen=True)
@@ -55,6 +57,7 @@ def plant_spec(value: Any, rate: float) -> PlantSpec:
         raise ConfigError("plant.timestep", timestep, f"a whole fraction of the control period "
                           f"({1 / rate:g} s)")  # fmt: skip
     least = TIMESTEPS_PER_TIMECONST * timestep
-    timeconst = number("plant.timeconst", p.get("timeconst", PlantSpec.timeconst), least, 0.01,
+    timeconst = number("plant.timeconst", p.get("timeconst", PlantSpec.timeconst), least,
+                       MAX_TIMECONST,
                        f"s (at least {TIMESTEPS_PER_TIMECONST} timesteps)")  # fmt: skip
     return PlantSpec(kind, facets, width, timestep, timeconst)
