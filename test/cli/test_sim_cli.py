@@ -65,15 +65,19 @@ def test_sim_runs_a_scenario_on_the_plant_named(tmp_path: Path, capsys) -> None:
     assert refused.value.code == 2 and "invalid choice: 'bullet'" in capsys.readouterr().err
 
 
+#: A short scenario for MuJoCo studies: 1 mm in 0.3 s.
+SHORT = ("geometry: {hole_radius: 0.00505, peg_radius: 0.00504, hole_depth: 0.01,"
+         " base_thickness: 0.005, friction: 0.3, stiffness: 1.84e+8}\n"
+         "initial: {dx: 0, dy: 0, theta_x: 0, theta_y: 0}\n"
+         "insertion: {depth: 0.001, speed: 0.005}\n"
+         "holder: {lateral: 5.0e+4, angular: 30}\nduration: 0.3\n")
+
+
 def test_montecarlo_runs_its_trials_on_the_plant_named(tmp_path: Path) -> None:
     """``fbcc-montecarlo --plant mujoco``: the trials run on MuJoCo, the same for the same seed
     on one worker or two, and the study says which plant it ran on."""
     scenario = tmp_path / "short.yaml"
-    scenario.write_text("geometry: {hole_radius: 0.00505, peg_radius: 0.00504, hole_depth: 0.01,"
-                        " base_thickness: 0.005, friction: 0.3, stiffness: 1.84e+8}\n"
-                        "initial: {dx: 0, dy: 0, theta_x: 0, theta_y: 0}\n"
-                        "insertion: {depth: 0.001, speed: 0.005}\n"
-                        "holder: {lateral: 5.0e+4, angular: 30}\nduration: 0.3\n")
+    scenario.write_text(SHORT)
     rows = []
     for workers in ("1", "2"):
         out = tmp_path / workers
@@ -102,11 +106,7 @@ def test_montecarlo_draws_each_trials_mujoco_contact(tmp_path: Path,
     differently. The model has no such contact, and a time constant under four timesteps is
     refused."""
     scenario = tmp_path / "short.yaml"
-    scenario.write_text("geometry: {hole_radius: 0.00505, peg_radius: 0.00504, hole_depth: 0.01,"
-                        " base_thickness: 0.005, friction: 0.3, stiffness: 1.84e+8}\n"
-                        "initial: {dx: 0, dy: 0, theta_x: 0, theta_y: 0}\n"
-                        "insertion: {depth: 0.001, speed: 0.005}\n"
-                        "holder: {lateral: 5.0e+4, angular: 30}\nduration: 0.3\n")
+    scenario.write_text(SHORT)
     study = [str(scenario), "--trials", "3", "--plant", "mujoco", "--workers", "1"]
     rows = {}
     for name, low, high in (("drawn", "0.2", "1"), ("metal", "0.2", "0.2"), ("soft", "1", "1")):
