@@ -26,8 +26,9 @@ from fbcc_ros.core.sim.plants.mujoco_scene import Contact, MujocoPegHole, Part
 from fbcc_ros.core.sim.plants.spec import PlantSpec
 
 #: The credibility study's two contacts (docs/plant.md): (solref's time constant [s], solimp's
-#: width [m]) of the metal-like contact the scene ships, and of a plastic-like one.
-METAL_LIKE = (2.0e-4, 1.0e-5)
+#: width [m]) of the metal-like contact the scene ships (its defaults: 0.2 ms, 10 µm), and of a
+#: plastic-like one.
+METAL_LIKE = (PlantSpec.timeconst, Contact.solimp[2])
 PLASTIC_LIKE = (1.0e-3, 1.0e-4)
 
 
