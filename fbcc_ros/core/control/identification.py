@@ -30,9 +30,10 @@ comes from the controller's own adjustments and a small dither at a frequency of
 **Gating and bounds.** The fit is updated only in contact (Fz or a row above its noise), so the
 free-space samples of a clearance fit do not pull the stiffness to zero; the covariance is
 bounded (its trace), so it does not wind up while the excitation is poor. The estimate the law
-uses is bounded below by a model floor for the softest material the user allows
-(``stiffness_min``, eq. 8's k in Pa) at the current depth, and falls no faster than the release
-time constant: an underestimate raises the loop gain, so the estimate must err stiff.
+uses is bounded below by a model floor for the softest contact the command meets, the part's
+material in series with the grip (``stiffness_min``, eq. 8's k in Pa) at the current depth, and
+falls no faster than the release time constant: an underestimate raises the loop gain, so the
+estimate must err stiff.
 
 Model floor, from finite differences of the contact model (eq. 5-13) at k = 1 GPa, both fits,
 depths 1-10 mm (``test_the_floor_is_below_the_models_stiffness_in_contact`` pins it as a

@@ -47,8 +47,13 @@ class RobustParams:
         dead_band: Dead zone of the filtered rows, in filtered-noise standard deviations.
         sensor_noise: Standard deviations the law assumes for (Fx, Fy, Fz, Mx, My) [N, N·m].
         identification_window: Memory of the RLS [s].
-        stiffness_min: The softest contact to expect, eq. 8's k [Pa]: the floor of the
-            identified stiffness (the highest gain the law will use).
+        stiffness_min: The softest the command meets, as eq. 8's k [Pa]: the floor of the
+            identified stiffness (the highest gain the law will use). The identifier sees the
+            contact in series with the grip (arm, F/T sensor, gripper), so the floor is under
+            the softest grip too: at 1e7 the offset rows' floor at 10 mm is 3e4 N/m, about a
+            2e4 N/m grip's, where the softest material's (1e8) put it at 3e5 N/m and a peg in
+            a soft grip settled at a tenth of the designed crossover (at 100 Hz, 54 of 1000
+            parts still pressed on their wall by over 0.5 N at the run's end; none at 1e7).
         release: Time constant with which a used stiffness may fall [s].
         dither_force: Dither amplitude of the offset rows, as a force [N].
         dither_effort: Dither amplitude of the tilt rows, in units of A(l) F [N].
@@ -193,7 +198,7 @@ class RobustParams:
     dead_band: float = 3.0
     sensor_noise: tuple[float, float, float, float, float] = DEFAULT_SENSOR_NOISE
     identification_window: float = 0.1
-    stiffness_min: float = 1e8
+    stiffness_min: float = 1e7
     release: float = 0.3
     dither_force: float = 0.3
     dither_effort: float = 2.0
